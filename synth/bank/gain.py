@@ -298,9 +298,7 @@ def apply_gain(
         book.close()
         book.rewrite(sorted(kept, key=lambda r: r["index"]))
     result.reached = _reached(kept, target)
-    result.orphans = mf.orphans(out, [r["file"] for r in kept])
-    if prune and result.orphans:
-        mf.remove_files(out, result.orphans)
-        result.pruned = True
+    result.orphans = mf.orphans(out, [r["file"] for r in kept], prune)
+    result.pruned = prune and bool(result.orphans)
     result.elapsed = time.perf_counter() - t0
     return result

@@ -62,10 +62,11 @@ def clean_temporaries(folder: Path) -> int:
 AUDIO_SUFFIXES = (".wav", ".flac", ".ogg")
 
 
-def orphans(folder: Path, kept_names) -> list[str]:
+def orphans(folder: Path, kept_names, prune=False) -> list[str]:
     """The audio files below ``folder`` (relative names, sorted) not in ``kept_names`` (the
     manifest's and the plan's): an earlier name template's, a stopped run's, or put there
-    by hand; temporaries not counted."""
+    by hand; temporaries not counted. With ``prune`` they are deleted, and the subfolders
+    they leave empty."""
     kept = set(kept_names)
     out = []
     for p in folder.rglob("*"):
@@ -73,20 +74,10 @@ def orphans(folder: Path, kept_names) -> list[str]:
         if p.suffix.lower() in AUDIO_SUFFIXES and not TEMPORARY.match(p.name) and p.is_file():
             if name not in kept:
                 out.append(name)
-    return sorted(out)
-
-
-def remove_files(folder: Path, names) -> int:
-    """Delete the files ``names`` in ``folder`` and the subfolders they leave empty; how many."""
-    n = 0
-    for name in names:
-        try:
-            (folder / name).unlink()
-        except FileNotFoundError:
-            continue
-        n += 1
+    for name in out if prune else ():
+        (folder / name).unlink(missing_ok=True)
         remove_empty_folders(folder, (folder / name).parent)
-    return n
+    return sorted(out)
 
 
 def remove_empty_folders(folder: Path, sub: Path) -> None:

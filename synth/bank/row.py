@@ -41,12 +41,9 @@ def integrated_loudness(audio: np.ndarray, samplerate: int) -> float | None:
         import pyloudnorm
     except ImportError:
         return None
-    from synth.store.audio import LOUDNESS_BLOCK
+    from synth.store.audio import LOUDNESS_BLOCK, padded_to_block
 
-    x = np.asarray(audio, dtype=np.float64)
-    need = math.ceil(LOUDNESS_BLOCK * samplerate)
-    if x.shape[0] < need:
-        x = np.pad(x, [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1))
+    x = padded_to_block(np.asarray(audio, dtype=np.float64), samplerate)
     value = float(pyloudnorm.Meter(samplerate, block_size=LOUDNESS_BLOCK).integrated_loudness(x))
     return round(value, 6) if math.isfinite(value) else None
 

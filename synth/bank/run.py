@@ -373,6 +373,36 @@ def _jobs(jobs) -> int:
     return spec_integer("jobs", jobs, 1, "must be an integer >= 1 (worker processes)")
 
 
+#: The options of :func:`run`, also the flags of ``synth bank``: name: (argparse keywords,
+#: what it does).
+OPTIONS = {
+    "jobs": (
+        {"type": int, "metavar": "N"},
+        "worker processes (default: the cores; 1 renders here)",
+    ),
+    "scheduler": (
+        {"metavar": "ADDRESS"},
+        "run on a Dask cluster (a scheduler's address tcp://host:8786, or a client) instead "
+        "of local workers",
+    ),
+    "dry_run": (
+        {"action": "store_true"},
+        "change nothing: list the rows to render (JSON lines) and estimate the time from a "
+        "few rows run in a scratch folder",
+    ),
+    "force": (
+        {"action": "store_true"},
+        "start over in a folder made by another spec (deletes its files)",
+    ),
+    "redo": ({"metavar": "ROWS"}, "render these rows again although complete (e.g. 17,40-45)"),
+    "prune": (
+        {"action": "store_true"},
+        "delete the audio files in the folder that are in neither the manifest nor the plan "
+        "(without it they are only reported)",
+    ),
+}
+
+
 def run(
     spec,
     out_dir,
@@ -384,17 +414,6 @@ def run(
     redo=None,
     prune: bool = False,
 ) -> BankResult:
-    """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``
-    (created if needed), resuming what an earlier run left.
-
-    ``jobs``: worker processes (default: the cores; 1 renders here); ``scheduler``: a Dask
-    scheduler's address (``"tcp://host:8786"``) or client; ``dry_run``: change nothing,
-    report the rows to render and an estimate of the time from a few rows run in a scratch
-    folder; ``force``: start over in a folder of another spec (its files deleted); ``redo``:
-    rows to render again (``"17,40-45"``); ``prune``: delete audio files in neither the
-    manifest nor the plan (else only reported). A bad spec raises
-    :class:`~synth.bank.spec.BankSpecError` before any work, an unreachable scheduler a
-    :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."""
     t0 = time.perf_counter()
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
@@ -413,6 +432,15 @@ def run(
             connection.close()
 
 
+run.__doc__ = (
+    "Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``\n"
+    "(created if needed), resuming what an earlier run left.\n\n"
+    + "\n".join(f"``{name}``: {text}." for name, (_, text) in OPTIONS.items())
+    + "\n\nA bad spec raises :class:`~synth.bank.spec.BankSpecError` before any work, an\n"
+    "unreachable scheduler a :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."
+)
+
+
 def _run_in(
     spec, items, out: Path, n_jobs: int, connection, force: bool, again, prune: bool
 ) -> BankResult:
@@ -425,7 +453,9 @@ def _run_in(
         hold_lock(lock)
         try:
             result = _run(spec, items, out, n_jobs, connection, force, again)
-            _find_orphans(out, items, result, prune)
+            recorded = [str(r.get("file")) for r in mf.read_rows(out)]
+            result.orphans = mf.orphans(out, [item.file for item in items] + recorded, prune)
+            result.pruned = prune and bool(result.orphans)
             return result
         finally:
             hold_lock(None)
@@ -437,12 +467,9 @@ def _run_in(
         ) from None
 
 
-def _dry_run(
-    spec, items, out: Path, jobs: int, force: bool, again=frozenset(), t0: float | None = None
-) -> BankResult:
+def _dry_run(spec, items, out: Path, jobs: int, force: bool, again, t0: float) -> BankResult:
     """What a run would do, writing nothing: the rows to render (status ``planned``), the
     rows complete and the :class:`Estimate`; with ``force`` every row is to render."""
-    t0 = time.perf_counter() if t0 is None else t0
     plan = {item.index: item for item in items}
     problem = _resume_problem(out, spec)
     if problem is not None and not force:
@@ -464,15 +491,6 @@ def _dry_run(
 def _todo(items, kept: list[dict]) -> list:
     done = {r["index"] for r in kept}
     return [item for item in items if item.index not in done]
-
-
-def _find_orphans(out: Path, items, result: BankResult, prune: bool) -> None:
-    """``result.orphans``, deleted if ``prune``."""
-    recorded = [str(r.get("file")) for r in mf.read_rows(out)]
-    result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
-    if prune and result.orphans:
-        mf.remove_files(out, result.orphans)
-        result.pruned = True
 
 
 def _run(

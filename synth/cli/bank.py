@@ -32,16 +32,9 @@ def _cmd_bank(args):
         return 0
     if args.output is None:
         raise bank.BankSpecError("-o DIR is required to render a bank (the folder of its files)")
-    result = bank.run(
-        args.spec,
-        args.output,
-        jobs=args.jobs,
-        scheduler=args.scheduler,
-        dry_run=args.dry_run,
-        force=args.force,
-        redo=args.redo,
-        prune=args.prune,
-    )
+    from synth.bank.run import OPTIONS
+
+    result = bank.run(args.spec, args.output, **{name: getattr(args, name) for name in OPTIONS})
     if args.dry_run:
         import json
 
@@ -78,33 +71,10 @@ def add_bank_parser(sub) -> None:
         metavar="DIR",
         help="folder of the files, manifest.csv/.jsonl and the stored spec (required to render)",
     )
-    p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: the cores)")
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run on a Dask cluster (tcp://host:8786) instead of local workers",
-    )
-    p.add_argument(
-        "--dry-run",
-        action="store_true",
-        help="change nothing: print the rows to render (JSON lines) and estimate the time",
-    )
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="start over in a folder made by another spec (deletes its files)",
-    )
-    p.add_argument(
-        "--redo",
-        metavar="ROWS",
-        help="render these rows again although complete (e.g. 17,40-45)",
-    )
-    p.add_argument(
-        "--prune",
-        action="store_true",
-        help="delete the audio files in DIR that are in neither the manifest nor the plan "
-        "(without it they are only reported)",
-    )
+    from synth.bank.run import OPTIONS
+
+    for name, (keywords, text) in OPTIONS.items():
+        p.add_argument("--" + name.replace("_", "-"), help=text, **keywords)
     p.add_argument(
         "--sheet",
         metavar="PNG",

@@ -93,45 +93,50 @@ def available() -> dict[str, Path]:
 
 def find(name_or_path) -> Path:
     """The file of a preset given as a path or a name."""
+    return find_file(name_or_path, available(), "preset", PresetError)
+
+
+def find_file(name_or_path, known: dict[str, Path], what: str, error=PresetError) -> Path:
+    """The TOML file ``name_or_path``: a path (a regular file, or ``*.toml``) or a name of
+    ``known``; else ``error`` naming the ``what`` and the nearest names."""
     if not isinstance(name_or_path, (str, os.PathLike)):
-        raise PresetError(
-            f"preset={name_or_path!r} must be a preset name or a file path (str or "
+        raise error(
+            f"{what}={name_or_path!r} must be a {what} name or a file path (str or "
             f"os.PathLike), not {type(name_or_path).__name__}"
         )
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
         if p.is_dir():
-            raise PresetError(f"preset file {str(p)!r} is a directory, not a preset file")
+            raise error(f"{what} file {str(p)!r} is a directory, not a {what} file")
         if p.exists() and not p.is_file():
-            raise PresetError(
-                f"preset file {str(p)!r} is not a regular file (a device or a pipe); "
-                f"give a .toml preset file"
+            raise error(
+                f"{what} file {str(p)!r} is not a regular file (a device or a pipe); "
+                f"give a .toml {what} file"
             )
         if not p.is_file():
-            raise PresetError(f"preset file {str(p)!r} does not exist")
+            raise error(f"{what} file {str(p)!r} does not exist")
         return p
-    names = available()
-    if str(name_or_path) in names:
-        return names[str(name_or_path)]
-    hint = checks.did_you_mean(name_or_path, names, n=3, cutoff=0.4)
-    raise PresetError(
-        f"preset={str(name_or_path)!r} is not a file or a known preset{hint}; "
-        f"known: {', '.join(names) or 'none'}"
+    if str(name_or_path) in known:
+        return known[str(name_or_path)]
+    hint = checks.did_you_mean(name_or_path, known, n=3, cutoff=0.4)
+    raise error(
+        f"{what}={str(name_or_path)!r} is not a file or a known {what}{hint}; "
+        f"known: {', '.join(known) or 'none'}"
     )
 
 
-def read(path) -> dict:
-    """The raw TOML of a preset file, as a dict."""
+def read(path, error=PresetError) -> dict:
+    """The raw TOML of a preset (or other TOML) file, as a dict; ``error`` if unreadable."""
     path = Path(path)
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
-        raise PresetError(f"{path}: not valid TOML: {exc}") from None
+        raise error(f"{path}: not valid TOML: {exc}") from None
     except UnicodeDecodeError as exc:
-        raise PresetError(f"{path}: not valid TOML: not UTF-8 text ({exc.reason})") from None
+        raise error(f"{path}: not valid TOML: not UTF-8 text ({exc.reason})") from None
     except OSError as exc:
-        raise PresetError(f"{path}: cannot be read: {exc.strerror}") from None
+        raise error(f"{path}: cannot be read: {exc.strerror}") from None
 
 
 def _override_list(overrides) -> list[str]:

@@ -135,23 +135,11 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
 def write_audio(
     path: str | os.PathLike, audio: np.ndarray, samplerate: int, subtype: str | None = None
 ) -> Path:
-    """Write audio to a WAV or FLAC file (by the suffix) through a temporary renamed onto
-    ``path``: a failure leaves no partial file and ``path`` untouched.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        ``.wav`` or ``.flac`` (any case), in an existing directory.
-    audio : ndarray of float, shape (frames,) or (frames, channels)
-        Samples in units of digital full scale (1.0 = 0 dBFS), finite, not empty.
-    samplerate : int > 0
-        Sample rate, Hz.
-    subtype : str, optional
-        A soundfile subtype of the format (default ``"PCM_24"``); any but ``"FLOAT"`` and
-        ``"DOUBLE"`` stores integers, so samples beyond +-1.0 are refused, never clipped.
-
-    Returns the path written (:class:`pathlib.Path`).
-    """
+    """Write ``audio`` (float, ``(frames,)`` or ``(frames, channels)``, in units of digital
+    full scale, finite, not empty) at ``samplerate`` Hz to the WAV or FLAC file ``path`` (by
+    its suffix, in an existing folder) through a temporary renamed onto it: a failure leaves
+    no partial file. ``subtype``: a soundfile subtype (default ``"PCM_24"``); one that stores
+    integers refuses samples beyond +-1.0, never clips them. Returns the path written."""
     p = check_output_path(path, "path", FORMATS)
     fmt = FORMATS[p.suffix.lower()]
     a = checks.audio_array("audio", audio)
@@ -360,6 +348,13 @@ def normalize(
     return y.astype(dtype), gain
 
 
+def padded_to_block(x: np.ndarray, samplerate: int) -> np.ndarray:
+    """``x`` zero-padded to one BS.1770 gating block (:data:`LOUDNESS_BLOCK` s) if shorter:
+    a shorter sound has no block to measure."""
+    need = math.ceil(LOUDNESS_BLOCK * samplerate)
+    return np.pad(x, [(0, max(0, need - x.shape[0]))] + [(0, 0)] * (x.ndim - 1))
+
+
 def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
     """Gain that puts the BS.1770 integrated loudness of ``x`` (peak 1) at ``target``."""
     try:
@@ -375,10 +370,7 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
             f"{LOUDNESS_MAX_CHANNELS} (L, R, C, Ls, Rs): use mode 'peak' or 'physical'"
         )
     meter = pyloudnorm.Meter(sr, block_size=LOUDNESS_BLOCK)
-    need = int(math.ceil(LOUDNESS_BLOCK * sr))
-    if x.shape[0] < need:
-        pad = [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1)
-        x = np.pad(x, pad)
+    x = padded_to_block(x, sr)
 
     def measure(g):
         return float(meter.integrated_loudness(x * g))

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -40,30 +39,13 @@ def available() -> dict[str, Path]:
 
 def find(path_or_name) -> Path:
     """The spec file ``path_or_name``: a file, or the name of an installed example."""
-    p = Path(path_or_name)
-    if p.exists() or p.suffix == ".toml":
-        return p
-    known = available()
-    if str(path_or_name) in known:
-        return known[str(path_or_name)]
-    hint = checks.did_you_mean(path_or_name, known, n=2, cutoff=0.4)
-    raise BankSpecError(
-        f"spec={str(path_or_name)!r} is not a file nor an example spec{hint}; examples: "
-        f"{', '.join(known) or 'none'}"
-    )
+    return presets.find_file(path_or_name, available(), "spec", BankSpecError)
 
 
 def load(path) -> BankSpec:
     """Read and check the spec file ``path`` (TOML) or the installed example of that name."""
     p = find(path)
-    try:
-        with open(p, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise BankSpecError(f"{p}: not valid TOML: {exc}") from None
-    except OSError as exc:
-        raise BankSpecError(f"spec={str(p)!r} cannot be read: {exc.strerror}") from None
-    return from_dict(data, base_dir=p.parent, source=str(p))
+    return from_dict(presets.read(p, BankSpecError), base_dir=p.parent, source=str(p))
 
 
 def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
