@@ -78,42 +78,16 @@ def solve_contact(
     n_points: int = 128,
     method: str = "auto",
 ) -> ImpactResult:
-    """Solve one impact from lumped parameters.
-
-    Parameters
-    ----------
-    mass : float > 0
-        Ball mass ``m``, kg.
-    stiffness : float > 0
-        Contact stiffness ``K`` of ``F = K delta^n``, N/m^n.
-    admittance : float >= 0
-        Plate mechanical admittance ``beta = 1/Z`` at the impact point, m/(N s).
-        0 is a rigid plate.
-    speed : float > 0
-        Ball's impact speed ``v_in`` (downward), m/s.
-    gravity : float >= 0
-        Gravitational acceleration ``g``, m/s^2 (0 turns gravity off).
-    exponent : float in (1, 4]
-        Contact law exponent ``n`` (Hertz 1.5, elastic foundation 2).
-    dissipation : float >= 0
-        Hunt-Crossley damping ``mu``, s/m (0: purely elastic contact).
-    viscous_time : float >= 0
-        The viscoelastic Hertz contact's dissipative time ``A``, s (Hertz exponent 1.5 only;
-        0: no viscoelastic loss).
-    plate_velocity : float
-        Velocity of the plate surface at the impact point before the impact,
-        ``v_free``, m/s, positive upward; constant over the contact.
-    rtol : float in [1e-12, 0.1]
-        Relative accuracy asked for the restitution and the contact time.
-    n_points : int >= 64
-        Number of uniform samples of the force pulse over the contact.
-    method : {"auto", "DOP853", "Radau"}
-        Integrator; "auto" chooses by stiffness.
-
-    Returns
-    -------
-    ImpactResult
-    """
+    """One impact from lumped parameters: the ball's ``mass`` ``m`` (kg), the ``stiffness``
+    ``K`` (N/m^n) and ``exponent`` ``n`` in (1, 4] of ``F = K delta^n`` (Hertz 1.5, elastic
+    foundation 2), the plate's ``admittance`` ``beta = 1/Z`` at the impact point (m/(N s),
+    0: rigid), the impact ``speed`` ``v_in`` (m/s, downward), ``gravity`` ``g`` (m/s^2, 0:
+    none), Hunt-Crossley's ``dissipation`` ``mu`` (s/m), the viscoelastic Hertz contact's
+    ``viscous_time`` ``A`` (s, n = 1.5 only), the plate surface's ``plate_velocity``
+    ``v_free`` before the impact (m/s, upward, constant over the contact); ``rtol`` in
+    [1e-12, 0.1], the relative accuracy of the restitution and the contact time;
+    ``n_points`` >= 64 uniform samples of the pulse; ``method`` "auto" (by stiffness),
+    "DOP853" or "Radau"."""
     # Plain floats inside their ranges (the usual call) skip the checks, which convert
     # anything else or name the field, its value and the range.
     values = dict(
@@ -200,7 +174,7 @@ def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
     return delta_y
 
 
-def _check_points(n_points) -> int:
+def check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
     if (
         isinstance(n_points, bool)
@@ -244,36 +218,13 @@ def solve_impact(
     plate_velocity: float = 0.0,
     n_points: int = 128,
 ) -> ImpactResult:
-    """Solve the impact of ``ball`` on ``plate`` at ``speed``.
-
-    Parameters
-    ----------
-    ball : Ball
-    plate : Plate
-    speed : float > 0
-        Impact speed, m/s.
-    position : (float, float), optional
-        Impact point, metres from a plate corner. None: far from the edges (the
-        infinite-plate impedance). Near an edge or corner the admittance grows
-        (see :func:`synth.physics.impedance.point_admittance`); it depends on the contact
-        time, so the two are solved together by fixed-point iteration.
-    gravity : float >= 0
-        m/s^2.
-    contact : str or None
-        Contact law (None: the ball's own), its parameters ``dissipation``, ``viscous_time``,
-        ``exponent``, ``stiffness``, ``layer_depth`` and the plate's ``surface``: see
-        :func:`~synth.physics.contact_law.contact_parameters`.
-    rtol : float
-        Relative accuracy of restitution and contact time.
-    plate_velocity : float
-        Plate surface velocity before the impact, m/s, positive upward.
-    n_points : int
-        Samples of the force pulse.
-
-    Returns
-    -------
-    ImpactResult
-    """
+    """The impact of ``ball`` on ``plate`` at ``speed`` (m/s) at ``position`` (m from a plate
+    corner; None: far from the edges, the infinite plate's impedance; near an edge the
+    admittance, :func:`synth.physics.impedance.point_admittance`, depends on the contact
+    time and the two are solved together by fixed-point iteration), under ``gravity``
+    (m/s^2) and the ``contact`` law (None: the ball's own) with its parameters
+    (:func:`~synth.physics.contact_law.contact_parameters`); ``rtol``, ``plate_velocity``
+    (m/s, upward) and ``n_points`` as :func:`solve_contact`'s."""
     solver = ContactSolver.for_pair(
         ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
         dissipation=dissipation, viscous_time=viscous_time, exponent=exponent,
@@ -333,7 +284,7 @@ class ContactSolver:
             rtol=checks.in_range(
                 "rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
             ),
-            n_points=_check_points(self.n_points),
+            n_points=check_points(self.n_points),
         )
         law = self.shell
         if law is None:

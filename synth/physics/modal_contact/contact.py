@@ -15,7 +15,7 @@ from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
-from synth.physics.contact import ImpactResult, check_law_fields, solve_contact
+from synth.physics.contact import ImpactResult, check_law_fields, check_points, solve_contact
 from synth.physics.contact_kernels.equations import yield_law_arrays
 from synth.physics.contact_law import contact_parameters
 from synth.physics.modal_contact.kernels import (
@@ -276,8 +276,7 @@ class ModalContact:
         in ``state`` at that moment (None: at rest); ``n_points`` uniform samples of the
         pulse in ``time`` and ``force``."""
         v_in = checks.positive("speed", speed, "m/s")
-        if isinstance(n_points, bool) or not isinstance(n_points, int) or n_points < 64:
-            raise ParameterError(f"n_points={n_points!r} must be an integer >= 64")
+        n_points = check_points(n_points)
         p = self.point
         state = self.at_rest() if state is None else state
         shapes = (state.q.shape, state.v.shape, state.q_res.shape, state.v_res.shape)

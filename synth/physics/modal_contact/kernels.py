@@ -93,11 +93,8 @@ def _transition(omega, sigma, h):  # pragma: no cover
 
 
 @compiled()
-def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
-    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
-    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
-    ``P`` rows (P11, P12, P21, P22) the transition matrix of :func:`_transition`, ``G`` rows
-    (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+def _transition_matrix(omega, sigma, h, P):  # pragma: no cover
+    """The rows (P11, P12, P21, P22) of :func:`_transition`'s matrix of each mode over ``h``."""
     for k in range(omega.size):
         s = sigma[k]
         w0 = omega[k]
@@ -106,7 +103,18 @@ def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
         P[k, 1] = e * sn / wd
         P[k, 2] = -e * w0 * w0 / wd * sn
         P[k, 3] = e * (c - s / wd * sn)
-        p = complex(-s, wd)
+
+
+@compiled()
+def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
+    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
+    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
+    ``P`` rows (P11, P12, P21, P22) the transition matrix of :func:`_transition`, ``G`` rows
+    (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+    _transition_matrix(omega, sigma, h, P)
+    for k in range(omega.size):
+        wd = math.sqrt(omega[k] * omega[k] - sigma[k] * sigma[k])
+        p = complex(-sigma[k], wd)
         p1, p2 = _phi12(p * h)
         j0 = h * (p1 - p2)
         j1 = h * p2
@@ -505,12 +513,7 @@ def first_touch(  # pragma: no cover
     # the state at s0, then the transition over one step
     surface = _surface(omega, sigma, q0, v0, x_res, rate, s0, q, v)
     P = np.empty((n, 4))
-    for k in range(n):
-        wd, e, c, sn = _transition(omega[k], sigma[k], dt)
-        P[k, 0] = e * (c + sigma[k] / wd * sn)
-        P[k, 1] = e * sn / wd
-        P[k, 2] = -e * omega[k] * omega[k] / wd * sn
-        P[k, 3] = e * (c - sigma[k] / wd * sn)
+    _transition_matrix(omega, sigma, dt, P)
     tail = x_res * math.exp(-rate * s0)
     tail_step = math.exp(-rate * dt)
     gap0 = height + speed * s0 - 0.5 * gravity * s0 * s0 - surface
