@@ -58,6 +58,17 @@ class PlateRinging:
         """Displacement of the surface under the ball, m, positive upward."""
         return float(self.q.sum()) + float(self.q_res.sum()) - self.x_res
 
+    @classmethod
+    def split(cls, q, v, x_res, n) -> PlateRinging:
+        """The state of the ``n`` band modes' then the lumped modes' ``q`` (m), ``v`` (m/s)."""
+        return cls(q[:n], v[:n], x_res, q[n:], v[n:])
+
+    def joined(self) -> tuple[np.ndarray, np.ndarray]:
+        """Fresh float arrays of ``q`` and ``v`` (m, m/s), the band's modes then the lumped."""
+        return np.concatenate((self.q, self.q_res), dtype=float), np.concatenate(
+            (self.v, self.v_res), dtype=float
+        )
+
     @property
     def velocity(self) -> float:
         """Bending velocity of the surface under the ball (the band's and the residual's
@@ -251,13 +262,12 @@ class ModalContact:
         """The plate's state after ringing freely for ``duration`` (s)."""
         d = checks.nonnegative("duration", duration, "s")
         p = self.point
-        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        q, v = state.joined()
         if d > 0.0:
             omega, sigma, _ = p.contact_modes
             ring_free(omega, sigma, q, v, d)
         x = state.x_res * math.exp(-p.residual_rate * d)
-        n = p.omega.size
-        return PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
+        return PlateRinging.split(q, v, x, p.omega.size)
 
     def energy(self, state: PlateRinging) -> float:
         """Energy of the bending modes and the residual's lumped modes in ``state`` (J):
@@ -265,7 +275,7 @@ class ModalContact:
         ``a x_res^2 / (2 beta_W)``."""
         p = self.point
         omega, _, coupling = p.contact_modes
-        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        q, v = state.joined()
         modal = 0.5 * float(((v**2 + omega**2 * q**2) / coupling).sum())
         return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
 
@@ -297,7 +307,7 @@ class ModalContact:
         )  # fmt: skip
         h = ref.separation_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
-        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        q, v = state.joined()
         x = np.array([state.x_res])
         omega, sigma, coupling = p.contact_modes
         pulse = np.zeros((4, max_steps + 1))  # times, forces, gaps and rates at the steps
@@ -311,8 +321,7 @@ class ModalContact:
             self.gravity, v_in, h, max_steps, pulse[1], pulse[0], pulse[2], pulse[3],
         )  # fmt: skip
         times, forces, gaps, rates = pulse[:, : o.steps + 1].copy()
-        n = p.omega.size
-        ringing = PlateRinging(q[:n], v[:n], float(x[0]), q[n:], v[n:])
+        ringing = PlateRinging.split(q, v, float(x[0]), p.omega.size)
         e_plate = self.energy(ringing)
         rigid = 0.5 * o.rigid_v**2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
         # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
@@ -380,7 +389,7 @@ def next_touch(
     if not g > 0.0:
         raise ParameterError("the ball lands again only with gravity > 0")
     omega, sigma, _ = p.contact_modes
-    qs, vs = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+    qs, vs = state.joined()
     W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / omega) ** 2).sum())
     v = speed
 
@@ -395,11 +404,6 @@ def next_touch(
         float(height), float(v), float(g), dt, s0, when(-W),
     )  # fmt: skip
     return s, contact.ring(state, s)
-
-
-def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
-    """A fresh float array of the band's modes' values followed by the lumped modes'."""
-    return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
 
 
 def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:

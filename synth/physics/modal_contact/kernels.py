@@ -290,31 +290,10 @@ def _surface_velocity(v, vr, xdot):  # pragma: no cover
 
 
 @compiled()
-def contact_kernel(
-    omega,
-    sigma,
-    c,
-    rc,
-    beta,
-    a,
-    q,
-    v,
-    x_res,
-    m,
-    K,
-    n,
-    mu,
-    b,
-    dy,
-    g,
-    v_in,
-    h,
-    max_steps,
-    forces,
-    times,
-    gaps,
-    rates,
-):  # pragma: no cover
+def contact_kernel(  # pragma: no cover
+    omega, sigma, c, rc, beta, a, q, v, x_res, m, K, n, mu, b, dy, g, v_in, h, max_steps,
+    forces, times, gaps, rates,
+):  # fmt: skip
     """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
     the contact law ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``
     (:func:`_lossy_force`; ``mu = b = 0``: elastic), with Thornton's yield past the
@@ -496,15 +475,10 @@ def first_touch(  # pragma: no cover
     omega, sigma, q0, v0, x_res, rate, height, speed, gravity, dt, s0, end
 ):
     """The first time in ``[s0, end]`` (s) at which a ball at ``height`` (m) rising at
-    ``speed`` (m/s) under ``gravity`` (m/s^2) meets the surface ringing from the state
-    (as :func:`_surface`), or ``end`` if it does not.
-
-    The gap is sampled in steps of ``dt`` (s), the modes carried from step to step by their
-    transition matrices over ``dt`` (exact for free ringing, to rounding); the first sign
-    change is then closed on the surface evaluated afresh at each trial time, by Illinois'
-    false position kept inside the bracket (a bisection where it would leave it), to the
-    time resolution of double precision. The time returned is the bracket's end where the
-    gap is <= 0."""
+    ``speed`` (m/s) under ``gravity`` (m/s^2) meets the surface ringing from the state (as
+    :func:`_surface`), or ``end``: the gap sampled every ``dt`` (s), the modes carried by
+    their transition matrices, the first sign change closed by :func:`illinois` on the
+    surface evaluated afresh, to double precision (the end where the gap is <= 0)."""
     n = q0.size
     q = np.empty(n)
     v = np.empty(n)
