@@ -1,28 +1,14 @@
-"""One impact: a ball against a plate's local contact stiffness and its mechanical impedance.
-
-The model of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34, 2.42):
-
-    d(delta)/dt = v_plate - v_s,    v_plate = v_free - beta F(delta)
-    d(v_s)/dt   = F / m - g
-    F = K delta^n                   (Hertz: n = 3/2, K = 4/3 sqrt(R) E*)
-    F = K delta^n (1 + mu d(delta)/dt),  F >= 0     (Hunt-Crossley)
-    F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt),  F >= 0     (viscoelastic Hertz)
-
-(the viscoelastic law: Kuwabara & Kono 1987, Brilliantov et al. 1996). ``solve_contact``
-takes lumped parameters, ``solve_impact`` derives them from a Ball, a Plate and a law; both
-return an :class:`ImpactResult`, numerical trouble reported in ``success``, ``status`` and
-``message`` (only bad input raises ParameterError). Results are in
-:mod:`~synth.physics.contact_result`, the hollow ball's solve in
-:mod:`~synth.physics.contact_shell`.
-
-Numerics (:mod:`synth.physics.contact_kernels`): the equations are scaled by Zener's time
-``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0`` and integrated by DOP853,
-or Radau IIA (order 5) where the contact is stiff (``beta m / theta`` above
-``contact_kernels.STIFF_LAMBDA``); the end of contact is located on the dense output. The local
-tolerance is ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so the
-global errors of restitution and contact time stay below ``rtol`` (absolute for ``e``
-below about ``rtol``).
-"""
+"""One impact: a ball against a plate's local contact stiffness and its mechanical impedance,
+under the contact laws of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34,
+2.42; Hunt & Crossley 1975; the viscoelastic Hertz law of Kuwabara & Kono 1987 and
+Brilliantov et al. 1996). :func:`solve_contact` takes lumped parameters, :func:`solve_impact`
+a Ball, a Plate and a law; both return an :class:`ImpactResult`
+(:mod:`~synth.physics.contact_result`; the hollow ball's in
+:mod:`~synth.physics.contact_shell`), numerical trouble reported in ``success``, ``status``
+and ``message``. The kernels (:mod:`synth.physics.contact_kernels`) integrate the equations
+scaled by Zener's time and length by DOP853, or Radau IIA where the contact is stiff, to the
+local tolerance ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so
+that the global errors of restitution and contact time stay below ``rtol``."""
 
 from __future__ import annotations
 

@@ -186,46 +186,34 @@ class ImpactResult:
         slope *= d.f_scale / d.theta
 
 
+#: The fields of :class:`ImpactResult` copied from a kernel's result array, and their columns.
+_ROW_FIELDS = (
+    ("restitution", _o.R_RESTITUTION), ("contact_time", _o.R_CONTACT_TIME),
+    ("separation_time", _o.R_SEPARATION_TIME), ("max_penetration", _o.R_MAX_PENETRATION),
+    ("peak_force", _o.R_PEAK_FORCE), ("impulse", _o.R_IMPULSE),
+    ("inelasticity", _o.R_INELASTICITY), ("rebound_speed", _o.R_REBOUND_SPEED),
+    ("plate_energy", _o.R_PLATE_ENERGY),
+)  # fmt: skip
+
+
 def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> ImpactResult:
     """The ``cls`` of a contact kernel's result ``r`` (a list of floats, fields ``R_*``),
     integrated by ``method``, with the dense output ``dense``; an energy residual above
     :data:`ENERGY_RESIDUAL_LIMIT` makes it a failure (``ENERGY_IMBALANCE``)."""
     status = int(r[_o.R_STATUS])
     residual = r[_o.R_ENERGY_RESIDUAL]
-    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
-    if energy_failed:
-        status = ENERGY_IMBALANCE
-    obj = object.__new__(cls)
+    message = _TINY_REBOUND if r[_o.R_TINY_REBOUND] else _MESSAGES.get(status, "Unknown status.")
+    if status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT:
+        status, message = ENERGY_IMBALANCE, _energy_message(residual)
+    values = {name: r[column] for name, column in _ROW_FIELDS}
+    values.update(
+        settled=status == _eq.SETTLED, energy_residual=residual, success=status >= 0,
+        status=status, message=message, n_steps=int(r[_o.R_N_STEPS]), method=method,
+        _dense=dense,
+    )  # fmt: skip
     # the solver's own values need no checks (__init__ would cost much of an impact's time)
-    object.__setattr__(
-        obj,
-        "__dict__",
-        {
-            "restitution": r[_o.R_RESTITUTION],
-            "contact_time": r[_o.R_CONTACT_TIME],
-            "separation_time": r[_o.R_SEPARATION_TIME],
-            "max_penetration": r[_o.R_MAX_PENETRATION],
-            "peak_force": r[_o.R_PEAK_FORCE],
-            "impulse": r[_o.R_IMPULSE],
-            "inelasticity": r[_o.R_INELASTICITY],
-            "settled": status == _eq.SETTLED,
-            "rebound_speed": r[_o.R_REBOUND_SPEED],
-            "plate_energy": r[_o.R_PLATE_ENERGY],
-            "energy_residual": residual,
-            "success": status >= 0,
-            "status": status,
-            "message": (
-                _energy_message(residual)
-                if energy_failed
-                else _TINY_REBOUND
-                if r[_o.R_TINY_REBOUND]
-                else _MESSAGES.get(status, "Unknown status.")
-            ),
-            "n_steps": int(r[_o.R_N_STEPS]),
-            "method": method,
-            "_dense": dense,
-        },
-    )
+    obj = object.__new__(cls)
+    object.__setattr__(obj, "__dict__", values)
     return obj
 
 

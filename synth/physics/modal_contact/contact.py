@@ -78,18 +78,14 @@ class PlateRinging:
 
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
-    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
-    the solver's steps (``step_times``, s) is the contact law ``F = K delta^(n-1) (delta +
-    (mu delta + b) delta')``, ``b = 3/2 A``, ``F >= 0``, with ``delta`` the cubic Hermite
-    interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates`` (m/s):
-    smooth, and rising after first touch as the contact law does (like ``t^n``, or like
-    ``t^(1/2)`` with the viscoelastic loss). ``contact_time`` is the force pulse's length,
-    ``separation_time`` the penetration's return to 0 (the last step); the pulse samples
-    ``time`` and ``force`` span the latter. ``contact_loss`` is the energy the contact's loss
-    (Hunt-Crossley ``mu``, s/m, or viscoelastic ``A``, s) and its plastic flow (Thornton's
-    yield past ``law_yield_penetration``, m) took, J.
-    ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
-    at separation over its impact speed (what bounce times measure)."""
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: between the
+    solver's steps (``step_times``, s) the pulse is the contact law of the cubic Hermite
+    interpolant of the penetrations ``step_gaps`` (m) and rates ``step_rates`` (m/s), rising
+    after first touch as the law does. ``contact_time`` is the force pulse's length,
+    ``separation_time`` the last step's (the samples ``time``, ``force`` span it);
+    ``contact_loss`` the energy (J) the contact's loss and plastic flow took; ``ringing`` the
+    plate's state at separation; ``restitution`` the ball's upward speed at separation over
+    its impact speed (what bounce times measure)."""
 
     step_times: np.ndarray | None = field(default=None, repr=False)
     step_forces: np.ndarray | None = field(default=None, repr=False)

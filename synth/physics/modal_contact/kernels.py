@@ -45,7 +45,7 @@ def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
     for _ in range(200):
         if hi - lo <= atol + rtol * hi:
             break
-        x = lo + (hi - lo) * f_lo / (f_lo - f_hi)
+        x = lo + (hi - lo) * f_lo / (f_lo - f_hi) if f_lo > f_hi else 0.5 * (lo + hi)
         if not lo < x < hi:
             x = 0.5 * (lo + hi)
         fx = f(x, *args)
