@@ -24,7 +24,7 @@ from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
 from synth.physics.contact_kernels import outcome as _o
-from synth.physics.contact_law import ShellLaw, check_yield_penetration, contact_parameters
+from synth.physics.contact_law import ShellLaw, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
 from synth.physics.contact_result import ENERGY_RESIDUAL_LIMIT as ENERGY_RESIDUAL_LIMIT
 from synth.physics.contact_result import (
@@ -128,27 +128,29 @@ def check_law_fields(law) -> dict:
     ``gravity`` (m/s^2), ``viscous_time`` (s) and ``yield_penetration`` (m) of a power law's
     solver (:class:`ContactSolver`, :class:`~synth.physics.modal_contact.ModalContact`)."""
     n = checks.in_range("exponent", law.exponent, 1.0, 4.0, "dimensionless", hi_open=False)
+    A, dy = law.viscous_time, law.yield_penetration
+    A_checked = checks.nonnegative("viscous_time", A, "s")
+    dy_checked = dy if dy == _INF else checks.positive("yield_penetration", dy, "m")
     return dict(
         mass=checks.positive("mass", law.mass, "kg"),
         stiffness=checks.positive("stiffness", law.stiffness, "N/m^n"),
         exponent=n,
         dissipation=checks.nonnegative("dissipation", law.dissipation, "s/m"),
         gravity=checks.nonnegative("gravity", law.gravity, "m/s^2"),
-        viscous_time=_check_viscous_time(law.viscous_time, n),
-        yield_penetration=check_yield_penetration(law.yield_penetration, n),
+        viscous_time=_hertz_only("viscous_time", A, A_checked, n, "the viscoelastic loss"),
+        yield_penetration=_hertz_only("yield_penetration", dy, dy_checked, n, "the yield"),
     )
 
 
-def _check_viscous_time(viscous_time, exponent: float) -> float:
-    """``viscous_time`` (s) as a float >= 0 that applies to ``exponent``, or
-    ``ParameterError``: the viscoelastic loss is that of the Hertz law (n = 1.5)."""
-    A = checks.nonnegative("viscous_time", viscous_time, "s")
-    if A > 0.0 and exponent != 1.5:
+def _hertz_only(name: str, value, checked: float, exponent: float, what: str) -> float:
+    """``checked``, field ``name``'s ``value`` checked, where it is off (0 or inf) or the law
+    the Hertz law (``exponent`` 1.5), else ``ParameterError``: ``what`` is the Hertz law's."""
+    if checked not in (0.0, _INF) and exponent != 1.5:
         raise ParameterError(
-            f"viscous_time={viscous_time!r} with exponent={exponent!r}: the viscoelastic loss "
-            f"applies to the Hertz exponent 1.5 only"
+            f"{name}={value!r} with exponent={exponent!r}: {what} applies to the Hertz "
+            f"exponent 1.5 only"
         )
-    return A
+    return checked
 
 
 def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:

@@ -448,21 +448,6 @@ def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
     return R * (math.pi * p_y / (2.0 * e_star)) ** 2
 
 
-def check_yield_penetration(value, exponent: float) -> float:
-    """``value`` as a yield penetration (m, > 0; inf: none) of the law of ``exponent``, or
-    ``ParameterError`` naming ``yield_penetration``: Thornton's yield is the Hertz law's
-    (exponent 1.5)."""
-    if value == math.inf:
-        return math.inf
-    d = checks.positive("yield_penetration", value, "m")
-    if exponent != 1.5:
-        raise ParameterError(
-            f"yield_penetration={value!r} with exponent={exponent!r}: the yield applies to "
-            f"the Hertz exponent 1.5 only"
-        )
-    return d
-
-
 def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:
     """The yield speed ``V_y`` (m/s) of ``ball`` on ``plate`` under ``law`` (None: the ball's
     own) and ``surface``: ``1/2 m V_y^2 = (2/5) K delta_y^(5/2)`` of the law's own Hertz
