@@ -1,28 +1,14 @@
-"""One impact: a ball against a plate's local contact stiffness and its mechanical impedance.
-
-The model of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34, 2.42):
-
-    d(delta)/dt = v_plate - v_s,    v_plate = v_free - beta F(delta)
-    d(v_s)/dt   = F / m - g
-    F = K delta^n                   (Hertz: n = 3/2, K = 4/3 sqrt(R) E*)
-    F = K delta^n (1 + mu d(delta)/dt),  F >= 0     (Hunt-Crossley)
-    F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt),  F >= 0     (viscoelastic Hertz)
-
-(the viscoelastic law: Kuwabara & Kono 1987, Brilliantov et al. 1996). ``solve_contact``
-takes lumped parameters, ``solve_impact`` derives them from a Ball, a Plate and a law; both
-return an :class:`ImpactResult`, numerical trouble reported in ``success``, ``status`` and
-``message`` (only bad input raises ParameterError). Results are in
-:mod:`~synth.physics.contact_result`, the hollow ball's solve in
-:mod:`~synth.physics.contact_shell`.
-
-Numerics (:mod:`synth.physics.contact_kernels`): the equations are scaled by Zener's time
-``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0`` and integrated by DOP853,
-or Radau IIA (order 5) where the contact is stiff (``beta m / theta`` above
-``contact_kernels.STIFF_LAMBDA``); the end of contact is located on the dense output. The local
-tolerance is ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so the
-global errors of restitution and contact time stay below ``rtol`` (absolute for ``e``
-below about ``rtol``).
-"""
+"""One impact: a ball against a plate's local contact stiffness and its mechanical impedance,
+under the contact laws of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34,
+2.42; Hunt & Crossley 1975; the viscoelastic Hertz law of Kuwabara & Kono 1987 and
+Brilliantov et al. 1996). :func:`solve_contact` takes lumped parameters, :func:`solve_impact`
+a Ball, a Plate and a law; both return an :class:`ImpactResult`
+(:mod:`~synth.physics.contact_result`; the hollow ball's in
+:mod:`~synth.physics.contact_shell`), numerical trouble reported in ``success``, ``status``
+and ``message``. The kernels (:mod:`synth.physics.contact_kernels`) integrate the equations
+scaled by Zener's time and length by DOP853, or Radau IIA where the contact is stiff, to the
+local tolerance ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so
+that the global errors of restitution and contact time stay below ``rtol``."""
 
 from __future__ import annotations
 
@@ -38,7 +24,7 @@ from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
 from synth.physics.contact_kernels import outcome as _o
-from synth.physics.contact_law import ShellLaw, check_yield_penetration, contact_parameters
+from synth.physics.contact_law import ShellLaw, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
 from synth.physics.contact_result import ENERGY_RESIDUAL_LIMIT as ENERGY_RESIDUAL_LIMIT
 from synth.physics.contact_result import (
@@ -78,42 +64,16 @@ def solve_contact(
     n_points: int = 128,
     method: str = "auto",
 ) -> ImpactResult:
-    """Solve one impact from lumped parameters.
-
-    Parameters
-    ----------
-    mass : float > 0
-        Ball mass ``m``, kg.
-    stiffness : float > 0
-        Contact stiffness ``K`` of ``F = K delta^n``, N/m^n.
-    admittance : float >= 0
-        Plate mechanical admittance ``beta = 1/Z`` at the impact point, m/(N s).
-        0 is a rigid plate.
-    speed : float > 0
-        Ball's impact speed ``v_in`` (downward), m/s.
-    gravity : float >= 0
-        Gravitational acceleration ``g``, m/s^2 (0 turns gravity off).
-    exponent : float in (1, 4]
-        Contact law exponent ``n`` (Hertz 1.5, elastic foundation 2).
-    dissipation : float >= 0
-        Hunt-Crossley damping ``mu``, s/m (0: purely elastic contact).
-    viscous_time : float >= 0
-        The viscoelastic Hertz contact's dissipative time ``A``, s (Hertz exponent 1.5 only;
-        0: no viscoelastic loss).
-    plate_velocity : float
-        Velocity of the plate surface at the impact point before the impact,
-        ``v_free``, m/s, positive upward; constant over the contact.
-    rtol : float in [1e-12, 0.1]
-        Relative accuracy asked for the restitution and the contact time.
-    n_points : int >= 64
-        Number of uniform samples of the force pulse over the contact.
-    method : {"auto", "DOP853", "Radau"}
-        Integrator; "auto" chooses by stiffness.
-
-    Returns
-    -------
-    ImpactResult
-    """
+    """One impact from lumped parameters: the ball's ``mass`` ``m`` (kg), the ``stiffness``
+    ``K`` (N/m^n) and ``exponent`` ``n`` in (1, 4] of ``F = K delta^n`` (Hertz 1.5, elastic
+    foundation 2), the plate's ``admittance`` ``beta = 1/Z`` at the impact point (m/(N s),
+    0: rigid), the impact ``speed`` ``v_in`` (m/s, downward), ``gravity`` ``g`` (m/s^2, 0:
+    none), Hunt-Crossley's ``dissipation`` ``mu`` (s/m), the viscoelastic Hertz contact's
+    ``viscous_time`` ``A`` (s, n = 1.5 only), the plate surface's ``plate_velocity``
+    ``v_free`` before the impact (m/s, upward, constant over the contact); ``rtol`` in
+    [1e-12, 0.1], the relative accuracy of the restitution and the contact time;
+    ``n_points`` >= 64 uniform samples of the pulse; ``method`` "auto" (by stiffness),
+    "DOP853" or "Radau"."""
     # Plain floats inside their ranges (the usual call) skip the checks, which convert
     # anything else or name the field, its value and the range.
     values = dict(
@@ -168,27 +128,29 @@ def check_law_fields(law) -> dict:
     ``gravity`` (m/s^2), ``viscous_time`` (s) and ``yield_penetration`` (m) of a power law's
     solver (:class:`ContactSolver`, :class:`~synth.physics.modal_contact.ModalContact`)."""
     n = checks.in_range("exponent", law.exponent, 1.0, 4.0, "dimensionless", hi_open=False)
+    A, dy = law.viscous_time, law.yield_penetration
+    A_checked = checks.nonnegative("viscous_time", A, "s")
+    dy_checked = dy if dy == _INF else checks.positive("yield_penetration", dy, "m")
     return dict(
         mass=checks.positive("mass", law.mass, "kg"),
         stiffness=checks.positive("stiffness", law.stiffness, "N/m^n"),
         exponent=n,
         dissipation=checks.nonnegative("dissipation", law.dissipation, "s/m"),
         gravity=checks.nonnegative("gravity", law.gravity, "m/s^2"),
-        viscous_time=_check_viscous_time(law.viscous_time, n),
-        yield_penetration=check_yield_penetration(law.yield_penetration, n),
+        viscous_time=_hertz_only("viscous_time", A, A_checked, n, "the viscoelastic loss"),
+        yield_penetration=_hertz_only("yield_penetration", dy, dy_checked, n, "the yield"),
     )
 
 
-def _check_viscous_time(viscous_time, exponent: float) -> float:
-    """``viscous_time`` (s) as a float >= 0 that applies to ``exponent``, or
-    ``ParameterError``: the viscoelastic loss is that of the Hertz law (n = 1.5)."""
-    A = checks.nonnegative("viscous_time", viscous_time, "s")
-    if A > 0.0 and exponent != 1.5:
+def _hertz_only(name: str, value, checked: float, exponent: float, what: str) -> float:
+    """``checked``, field ``name``'s ``value`` checked, where it is off (0 or inf) or the law
+    the Hertz law (``exponent`` 1.5), else ``ParameterError``: ``what`` is the Hertz law's."""
+    if checked not in (0.0, _INF) and exponent != 1.5:
         raise ParameterError(
-            f"viscous_time={viscous_time!r} with exponent={exponent!r}: the viscoelastic loss "
-            f"applies to the Hertz exponent 1.5 only"
+            f"{name}={value!r} with exponent={exponent!r}: {what} applies to the Hertz "
+            f"exponent 1.5 only"
         )
-    return A
+    return checked
 
 
 def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
@@ -200,7 +162,7 @@ def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
     return delta_y
 
 
-def _check_points(n_points) -> int:
+def check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
     if (
         isinstance(n_points, bool)
@@ -244,36 +206,13 @@ def solve_impact(
     plate_velocity: float = 0.0,
     n_points: int = 128,
 ) -> ImpactResult:
-    """Solve the impact of ``ball`` on ``plate`` at ``speed``.
-
-    Parameters
-    ----------
-    ball : Ball
-    plate : Plate
-    speed : float > 0
-        Impact speed, m/s.
-    position : (float, float), optional
-        Impact point, metres from a plate corner. None: far from the edges (the
-        infinite-plate impedance). Near an edge or corner the admittance grows
-        (see :func:`synth.physics.impedance.point_admittance`); it depends on the contact
-        time, so the two are solved together by fixed-point iteration.
-    gravity : float >= 0
-        m/s^2.
-    contact : str or None
-        Contact law (None: the ball's own), its parameters ``dissipation``, ``viscous_time``,
-        ``exponent``, ``stiffness``, ``layer_depth`` and the plate's ``surface``: see
-        :func:`~synth.physics.contact_law.contact_parameters`.
-    rtol : float
-        Relative accuracy of restitution and contact time.
-    plate_velocity : float
-        Plate surface velocity before the impact, m/s, positive upward.
-    n_points : int
-        Samples of the force pulse.
-
-    Returns
-    -------
-    ImpactResult
-    """
+    """The impact of ``ball`` on ``plate`` at ``speed`` (m/s) at ``position`` (m from a plate
+    corner; None: far from the edges, the infinite plate's impedance; near an edge the
+    admittance, :func:`synth.physics.impedance.point_admittance`, depends on the contact
+    time and the two are solved together by fixed-point iteration), under ``gravity``
+    (m/s^2) and the ``contact`` law (None: the ball's own) with its parameters
+    (:func:`~synth.physics.contact_law.contact_parameters`); ``rtol``, ``plate_velocity``
+    (m/s, upward) and ``n_points`` as :func:`solve_contact`'s."""
     solver = ContactSolver.for_pair(
         ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
         dissipation=dissipation, viscous_time=viscous_time, exponent=exponent,
@@ -333,7 +272,7 @@ class ContactSolver:
             rtol=checks.in_range(
                 "rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
             ),
-            n_points=_check_points(self.n_points),
+            n_points=check_points(self.n_points),
         )
         law = self.shell
         if law is None:

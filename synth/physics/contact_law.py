@@ -274,32 +274,19 @@ def contact_parameters(
     layer_depth: float | None = None,
     surface: str = "ideal",
 ) -> ContactLaw:
-    """The constants of a named contact law (docs/physics.md, "Hertz contact").
-
-    Parameters
-    ----------
-    contact : str or None
-        One of :data:`~synth.physics.scene.CONTACT_LAWS`; None: the ball's own law
-        (:func:`own_law`).
-        "shell": the thin-shell law of a :class:`~synth.physics.scene.HollowBall`
-        (:func:`shell_law`; its only law, and for it only).
-    surface : {"ideal", "fitted", "auto"}
-        "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
-        "hertz" only): the plate material's fitted surface
-        (:func:`synth.physics.materials.contact_surface`): Hertz at its through-thickness
-        modulus with its loss (Hunt-Crossley or viscoelastic). "auto": the model closest to
-        measurement, :func:`resolved_surface`.
-    dissipation : float > 0
-        Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
-    viscous_time : float > 0
-        The dissipative time ``A`` (s) of the viscoelastic Hertz contact
-        ``F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara &
-        Kono 1987; Brilliantov et al. 1996): required for "viscoelastic", refused otherwise.
-    exponent, stiffness : float
-        ``n`` (dimensionless, in (1, 4]) and ``K_n`` (N/m^n): required for "power-law".
-    layer_depth : float > 0
-        Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
-    """
+    """The constants of a named ``contact`` law (docs/physics.md, "Hertz contact"): one of
+    :data:`~synth.physics.scene.CONTACT_LAWS`, None the ball's own (:func:`own_law`);
+    "shell", a :class:`~synth.physics.scene.HollowBall`'s thin-shell law (:func:`shell_law`,
+    its only law). ``surface`` "ideal": the plate an isotropic elastic half-space (the
+    thesis' model); "fitted" ("hertz" only): the material's fitted surface
+    (:func:`synth.physics.materials.contact_surface`), Hertz at its through-thickness
+    modulus with its loss; "auto": the model closest to measurement
+    (:func:`resolved_surface`). Required by their law, refused by the others: Hunt-Crossley's
+    ``dissipation`` ``mu`` (s/m); the viscoelastic Hertz contact's ``viscous_time`` ``A``
+    (s) of ``F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara &
+    Kono 1987; Brilliantov et al. 1996); "power-law"'s ``exponent`` ``n`` in (1, 4] and
+    ``stiffness`` ``K_n`` (N/m^n); "elastic-foundation"'s Winkler ``layer_depth`` (m,
+    default: the plate's thickness)."""
     if contact is None:
         contact = own_law(ball)
     checks.choice("contact", contact, CONTACT_LAWS)
@@ -459,21 +446,6 @@ def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
     R = ball.radius
     e_star = 0.75 * stiffness / math.sqrt(R)
     return R * (math.pi * p_y / (2.0 * e_star)) ** 2
-
-
-def check_yield_penetration(value, exponent: float) -> float:
-    """``value`` as a yield penetration (m, > 0; inf: none) of the law of ``exponent``, or
-    ``ParameterError`` naming ``yield_penetration``: Thornton's yield is the Hertz law's
-    (exponent 1.5)."""
-    if value == math.inf:
-        return math.inf
-    d = checks.positive("yield_penetration", value, "m")
-    if exponent != 1.5:
-        raise ParameterError(
-            f"yield_penetration={value!r} with exponent={exponent!r}: the yield applies to "
-            f"the Hertz exponent 1.5 only"
-        )
-    return d
 
 
 def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:

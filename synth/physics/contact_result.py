@@ -63,52 +63,21 @@ class DenseOutput(NamedTuple):
 
 @dataclass(frozen=True, eq=False)
 class ImpactResult:
-    """The outcome of one impact (SI units).
-
-    Attributes
-    ----------
-    restitution : float
-        ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
-    contact_time : float
-        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), what a
-        force transducer measures; for a settled ball, when it was proven unable to separate.
-    separation_time : float
-        Time from first touch to separation (the penetration's return to 0), s: the bounce
-        scheduler's clock; with a loss later than ``contact_time`` (docs/physics.md,
-        "Contact losses"), else equal to it.
-    max_penetration : float
-        Largest local deformation ``delta_max``, m.
-    peak_force : float
-        Largest contact force, N.
-    impulse : float
-        Integral of the contact force over the contact, N s.
-    inelasticity : float
-        Zener's parameter ``lam = beta m / theta``, dimensionless.
-    settled : bool
-        True if the ball never separated (it came to rest on the plate).
-    rebound_speed : float
-        Relative speed of separation ``v_out = v_s(tau) - v_free``, m/s (0 if settled).
-    plate_energy : float
-        Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
-    time, force : ndarray
-        Uniform samples of the pulse from first touch to separation: times (s) and forces
-        (N), sampled from the dense output on first access.
-    energy_residual : float
-        Error of the energy balance (docs/physics.md, "Hertz contact") relative to the
-        energy exchanged (the larger of the impact's, gravity's work, the plate's share).
-    success : bool
-        True if the contact was integrated to its end.
-    status : int
-        0 separated, 1 settled, negative: failure (see ``message``; -3: the energy
-        balance is off by more than ``ENERGY_RESIDUAL_LIMIT``).
-    message : str
-        Human-readable description of ``status``.
-    n_steps : int
-        Accepted integration steps (after the series start of the contact).
-    method : str
-        ``"DOP853"`` or ``"Radau"``; ``"DOPRI5"`` for a hollow ball's thin-shell law
-        (:class:`~synth.physics.contact_shell.ShellImpactResult`).
-    """
+    """The outcome of one impact (SI units): ``restitution`` ``e = v_out / v_in`` (0 when
+    settled); ``contact_time`` (s), the force pulse's length (force > 0, what a force
+    transducer measures; for a settled ball, when it was proven unable to separate);
+    ``separation_time`` (s), to the penetration's return to 0 (the bounce scheduler's clock;
+    later than ``contact_time`` with a loss, docs/physics.md, "Contact losses");
+    ``max_penetration`` (m), ``peak_force`` (N), ``impulse`` (N s); Zener's ``inelasticity``
+    ``lam = beta m / theta``; ``settled``, the ball never separated; ``rebound_speed``
+    ``v_out = v_s(tau) - v_free`` (m/s, 0 if settled); ``plate_energy`` ``beta Int F^2 dt``
+    (J); ``time``, ``force``: uniform samples of the pulse to separation (s, N), from the
+    dense output on first access; ``energy_residual``, the energy balance's error
+    (docs/physics.md, "Hertz contact") relative to the energy exchanged; ``success``,
+    integrated to its end; ``status`` 0 separated, 1 settled, negative a failure (-3: the
+    balance off by more than ``ENERGY_RESIDUAL_LIMIT``), ``message`` saying which;
+    ``n_steps``, accepted steps after the series start; ``method``, ``"DOP853"``,
+    ``"Radau"`` or ``"DOPRI5"`` (a hollow ball's shell law)."""
 
     restitution: float
     contact_time: float
@@ -217,46 +186,34 @@ class ImpactResult:
         slope *= d.f_scale / d.theta
 
 
+#: The fields of :class:`ImpactResult` copied from a kernel's result array, and their columns.
+_ROW_FIELDS = (
+    ("restitution", _o.R_RESTITUTION), ("contact_time", _o.R_CONTACT_TIME),
+    ("separation_time", _o.R_SEPARATION_TIME), ("max_penetration", _o.R_MAX_PENETRATION),
+    ("peak_force", _o.R_PEAK_FORCE), ("impulse", _o.R_IMPULSE),
+    ("inelasticity", _o.R_INELASTICITY), ("rebound_speed", _o.R_REBOUND_SPEED),
+    ("plate_energy", _o.R_PLATE_ENERGY),
+)  # fmt: skip
+
+
 def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> ImpactResult:
     """The ``cls`` of a contact kernel's result ``r`` (a list of floats, fields ``R_*``),
     integrated by ``method``, with the dense output ``dense``; an energy residual above
     :data:`ENERGY_RESIDUAL_LIMIT` makes it a failure (``ENERGY_IMBALANCE``)."""
     status = int(r[_o.R_STATUS])
     residual = r[_o.R_ENERGY_RESIDUAL]
-    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
-    if energy_failed:
-        status = ENERGY_IMBALANCE
-    obj = object.__new__(cls)
+    message = _TINY_REBOUND if r[_o.R_TINY_REBOUND] else _MESSAGES.get(status, "Unknown status.")
+    if status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT:
+        status, message = ENERGY_IMBALANCE, _energy_message(residual)
+    values = {name: r[column] for name, column in _ROW_FIELDS}
+    values.update(
+        settled=status == _eq.SETTLED, energy_residual=residual, success=status >= 0,
+        status=status, message=message, n_steps=int(r[_o.R_N_STEPS]), method=method,
+        _dense=dense,
+    )  # fmt: skip
     # the solver's own values need no checks (__init__ would cost much of an impact's time)
-    object.__setattr__(
-        obj,
-        "__dict__",
-        {
-            "restitution": r[_o.R_RESTITUTION],
-            "contact_time": r[_o.R_CONTACT_TIME],
-            "separation_time": r[_o.R_SEPARATION_TIME],
-            "max_penetration": r[_o.R_MAX_PENETRATION],
-            "peak_force": r[_o.R_PEAK_FORCE],
-            "impulse": r[_o.R_IMPULSE],
-            "inelasticity": r[_o.R_INELASTICITY],
-            "settled": status == _eq.SETTLED,
-            "rebound_speed": r[_o.R_REBOUND_SPEED],
-            "plate_energy": r[_o.R_PLATE_ENERGY],
-            "energy_residual": residual,
-            "success": status >= 0,
-            "status": status,
-            "message": (
-                _energy_message(residual)
-                if energy_failed
-                else _TINY_REBOUND
-                if r[_o.R_TINY_REBOUND]
-                else _MESSAGES.get(status, "Unknown status.")
-            ),
-            "n_steps": int(r[_o.R_N_STEPS]),
-            "method": method,
-            "_dense": dense,
-        },
-    )
+    obj = object.__new__(cls)
+    object.__setattr__(obj, "__dict__", values)
     return obj
 
 

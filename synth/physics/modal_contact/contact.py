@@ -15,25 +15,14 @@ from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
-from synth.physics.contact import ImpactResult, check_law_fields, solve_contact
-from synth.physics.contact_kernels.equations import yield_law, yield_law_arrays
+from synth.physics.contact import ImpactResult, check_law_fields, check_points, solve_contact
+from synth.physics.contact_kernels.equations import yield_law_arrays
 from synth.physics.contact_law import contact_parameters
 from synth.physics.modal_contact.kernels import (
-    R_CONTACT_LOSS,
-    R_DAMPING_LOSS,
-    R_DASHPOT_LOSS,
-    R_DMAX,
-    R_FMAX,
-    R_IMPULSE,
-    R_RIGID_V,
-    R_STATUS,
-    R_STEPS,
-    R_TIME,
-    R_U,
-    R_V,
-    SEPARATED,
     contact_kernel,
     first_touch,
+    force_end,
+    hermite,
     ring_free,
 )
 from synth.physics.modal_contact.point import ModalPoint, modal_point
@@ -69,6 +58,17 @@ class PlateRinging:
         """Displacement of the surface under the ball, m, positive upward."""
         return float(self.q.sum()) + float(self.q_res.sum()) - self.x_res
 
+    @classmethod
+    def split(cls, q, v, x_res, n) -> PlateRinging:
+        """The state of the ``n`` band modes' then the lumped modes' ``q`` (m), ``v`` (m/s)."""
+        return cls(q[:n], v[:n], x_res, q[n:], v[n:])
+
+    def joined(self) -> tuple[np.ndarray, np.ndarray]:
+        """Fresh float arrays of ``q`` and ``v`` (m, m/s), the band's modes then the lumped."""
+        return np.concatenate((self.q, self.q_res), dtype=float), np.concatenate(
+            (self.v, self.v_res), dtype=float
+        )
+
     @property
     def velocity(self) -> float:
         """Bending velocity of the surface under the ball (the band's and the residual's
@@ -76,31 +76,16 @@ class PlateRinging:
         return float(self.v.sum()) + float(self.v_res.sum())
 
 
-class _Pulse:
-    """The solver's samples at its steps (trimmed to the contact): times (s), forces (N),
-    penetrations ``delta`` (m) and their rates (m/s)."""
-
-    def __init__(self, times, forces, gaps, rates, steps):
-        self.times = times[: steps + 1].copy()
-        self.forces = forces[: steps + 1].copy()
-        self.gaps = gaps[: steps + 1].copy()
-        self.rates = rates[: steps + 1].copy()
-
-
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
-    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
-    the solver's steps (``step_times``, s) is the contact law ``F = K delta^(n-1) (delta +
-    (mu delta + b) delta')``, ``b = 3/2 A``, ``F >= 0``, with ``delta`` the cubic Hermite
-    interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates`` (m/s):
-    smooth, and rising after first touch as the contact law does (like ``t^n``, or like
-    ``t^(1/2)`` with the viscoelastic loss). ``contact_time`` is the force pulse's length,
-    ``separation_time`` the penetration's return to 0 (the last step); the pulse samples
-    ``time`` and ``force`` span the latter. ``contact_loss`` is the energy the contact's loss
-    (Hunt-Crossley ``mu``, s/m, or viscoelastic ``A``, s) and its plastic flow (Thornton's
-    yield past ``law_yield_penetration``, m) took, J.
-    ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
-    at separation over its impact speed (what bounce times measure)."""
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: between the
+    solver's steps (``step_times``, s) the pulse is the contact law of the cubic Hermite
+    interpolant of the penetrations ``step_gaps`` (m) and rates ``step_rates`` (m/s), rising
+    after first touch as the law does. ``contact_time`` is the force pulse's length,
+    ``separation_time`` the last step's (the samples ``time``, ``force`` span it);
+    ``contact_loss`` the energy (J) the contact's loss and plastic flow took; ``ringing`` the
+    plate's state at separation; ``restitution`` the ball's upward speed at separation over
+    its impact speed (what bounce times measure)."""
 
     step_times: np.ndarray | None = field(default=None, repr=False)
     step_forces: np.ndarray | None = field(default=None, repr=False)
@@ -140,7 +125,7 @@ class ModalImpactResult(ImpactResult):
         i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
         h = ts[i + 1] - ts[i]
         u = (tt - ts[i]) / h
-        delta, rate, accel = _hermite(u, h, self.step_gaps, self.step_rates, i)
+        delta, rate, accel = hermite(u, h, self.step_gaps, self.step_rates, i)
         inside = (tt >= 0.0) & (tt <= self.separation_time) & (delta > 0.0)
         dpos = np.where(inside, delta, 1.0)
         n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
@@ -273,13 +258,12 @@ class ModalContact:
         """The plate's state after ringing freely for ``duration`` (s)."""
         d = checks.nonnegative("duration", duration, "s")
         p = self.point
-        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        q, v = state.joined()
         if d > 0.0:
             omega, sigma, _ = p.contact_modes
             ring_free(omega, sigma, q, v, d)
         x = state.x_res * math.exp(-p.residual_rate * d)
-        n = p.omega.size
-        return PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
+        return PlateRinging.split(q, v, x, p.omega.size)
 
     def energy(self, state: PlateRinging) -> float:
         """Energy of the bending modes and the residual's lumped modes in ``state`` (J):
@@ -287,7 +271,7 @@ class ModalContact:
         ``a x_res^2 / (2 beta_W)``."""
         p = self.point
         omega, _, coupling = p.contact_modes
-        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        q, v = state.joined()
         modal = 0.5 * float(((v**2 + omega**2 * q**2) / coupling).sum())
         return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
 
@@ -298,8 +282,7 @@ class ModalContact:
         in ``state`` at that moment (None: at rest); ``n_points`` uniform samples of the
         pulse in ``time`` and ``force``."""
         v_in = checks.positive("speed", speed, "m/s")
-        if isinstance(n_points, bool) or not isinstance(n_points, int) or n_points < 64:
-            raise ParameterError(f"n_points={n_points!r} must be an integer >= 64")
+        n_points = check_points(n_points)
         p = self.point
         state = self.at_rest() if state is None else state
         shapes = (state.q.shape, state.v.shape, state.q_res.shape, state.v_res.shape)
@@ -320,91 +303,74 @@ class ModalContact:
         )  # fmt: skip
         h = ref.separation_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
-        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        q, v = state.joined()
         x = np.array([state.x_res])
         omega, sigma, coupling = p.contact_modes
-        forces = np.zeros(max_steps + 1)
-        times = np.zeros(max_steps + 1)
-        gaps = np.zeros(max_steps + 1)
-        rates = np.zeros(max_steps + 1)
-        e0 = self.energy(state)
-        w0 = state.displacement
+        pulse = np.zeros((4, max_steps + 1))  # times, forces, gaps and rates at the steps
+        e0, w0 = self.energy(state), state.displacement
         announce("modal-contact")
-        r = contact_kernel(
+        o = contact_kernel(
             omega, sigma, coupling, p.rigid_coupling, p.residual_admittance, p.residual_rate,
             q, v, x, self.mass, self.stiffness, self.exponent, self.dissipation,
             1.5 * self.viscous_time,
             None if self.yield_penetration == math.inf else self.yield_penetration,
-            self.gravity, v_in, h, max_steps, forces, times, gaps, rates,
+            self.gravity, v_in, h, max_steps, pulse[1], pulse[0], pulse[2], pulse[3],
         )  # fmt: skip
-        pulse = _Pulse(times, forces, gaps, rates, int(r[R_STEPS]))
-        return self._result(r, q, v, float(x[0]), v_in, e0, w0, pulse, ref, n_points)
-
-    def _result(self, r, q, v, x, v_in, e0, w0, pulse, ref, n_points) -> ModalImpactResult:
-        p = self.point
-        m = self.mass
-        steps = int(r[R_STEPS])
-        separated = int(r[R_STATUS]) == SEPARATED
-        n = p.omega.size
-        ringing = PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
+        times, forces, gaps, rates = pulse[:, : o.steps + 1].copy()
+        ringing = PlateRinging.split(q, v, float(x[0]), p.omega.size)
         e_plate = self.energy(ringing)
-        rigid = 0.5 * r[R_RIGID_V] ** 2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
-        v_out = float(r[R_V])
+        rigid = 0.5 * o.rigid_v**2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
         # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
         # the ball from first touch included: m g times the height it lost)
+        m = self.mass
         ball_in = 0.5 * m * v_in**2
-        ball_out = 0.5 * m * v_out**2 + m * self.gravity * (float(r[R_U]) - w0)
-        plate = e_plate - e0 + rigid + r[R_DAMPING_LOSS] + r[R_DASHPOT_LOSS]
-        plate += r[R_CONTACT_LOSS]
-        scale = max(ball_in, e0, abs(plate), 1e-300)
-        residual = abs(ball_in - ball_out - plate) / scale
-        e = v_out / v_in if separated and v_out > 0.0 else 0.0
-        end = float(r[R_TIME])
+        ball_out = 0.5 * m * o.v**2 + m * self.gravity * (o.u - w0)
+        plate = e_plate - e0 + rigid + o.damping_loss + o.dashpot_loss
+        plate += o.contact_loss
+        residual = abs(ball_in - ball_out - plate) / max(ball_in, e0, abs(plate), 1e-300)
         lossy = self.dissipation != 0.0 or self.viscous_time != 0.0
-        lossy = lossy or self.yield_penetration != math.inf
-        obj = ModalImpactResult(
-            restitution=e,
-            contact_time=_force_end(
-                pulse, self.dissipation, 1.5 * self.viscous_time, self.yield_penetration
+        if o.separated and (lossy or self.yield_penetration != math.inf):
+            b = 1.5 * self.viscous_time
+            t_force = force_end(
+                times, forces, gaps, rates, self.dissipation, b, self.yield_penetration
             )
-            if separated and lossy
-            else end,
-            separation_time=end,
-            max_penetration=float(r[R_DMAX]),
-            peak_force=float(r[R_FMAX]),
-            impulse=float(r[R_IMPULSE]),
+        else:
+            t_force = o.time
+        message = "The ball separated from the plate." if o.separated else (
+            f"The ball did not separate within {SETTLE_FACTOR:g} contact times of the "
+            f"impedance model: it rests on the plate."
+        )  # fmt: skip
+        return ModalImpactResult(
+            restitution=o.v / v_in if o.separated and o.v > 0.0 else 0.0,
+            contact_time=t_force,
+            separation_time=o.time,
+            max_penetration=o.dmax,
+            peak_force=o.fmax,
+            impulse=o.impulse,
             inelasticity=ref.inelasticity,
-            settled=not separated,
-            rebound_speed=max(v_out, 0.0) if separated else 0.0,
-            plate_energy=float(plate),
-            energy_residual=float(residual),
+            settled=not o.separated,
+            rebound_speed=max(o.v, 0.0) if o.separated else 0.0,
+            plate_energy=plate,
+            energy_residual=residual,
             success=True,
-            status=0 if separated else 1,
-            message=(
-                "The ball separated from the plate."
-                if separated
-                else (
-                    f"The ball did not separate within {SETTLE_FACTOR:g} contact times of the "
-                    f"impedance model: it rests on the plate."
-                )
-            ),
-            n_steps=steps,
+            status=0 if o.separated else 1,
+            message=message,
+            n_steps=o.steps,
             method="modal",
-            step_times=pulse.times,
-            step_forces=pulse.forces,
-            step_gaps=pulse.gaps,
-            step_rates=pulse.rates,
+            step_times=times,
+            step_forces=forces,
+            step_gaps=gaps,
+            step_rates=rates,
             law_stiffness=self.stiffness,
             law_exponent=self.exponent,
             law_dissipation=self.dissipation,
             law_viscous_time=self.viscous_time,
             law_yield_penetration=self.yield_penetration,
-            contact_loss=float(r[R_CONTACT_LOSS]),
+            contact_loss=o.contact_loss,
             ringing=ringing,
             plate_modal_energy=e_plate,
             n_points=n_points,
         )
-        return obj
 
 
 def next_touch(
@@ -419,7 +385,7 @@ def next_touch(
     if not g > 0.0:
         raise ParameterError("the ball lands again only with gravity > 0")
     omega, sigma, _ = p.contact_modes
-    qs, vs = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+    qs, vs = state.joined()
     W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / omega) ** 2).sum())
     v = speed
 
@@ -434,86 +400,6 @@ def next_touch(
         float(height), float(v), float(g), dt, s0, when(-W),
     )  # fmt: skip
     return s, contact.ring(state, s)
-
-
-def _force_end(pulse: _Pulse, mu: float, b: float, dy: float) -> float:
-    """The end of a lossy contact's force pulse (s from first touch), before the penetration's:
-    the last time the force ``K delta^(n-1) (delta + (mu delta + b) delta')`` (Thornton's
-    with a yield ``dy``, m) falls to 0 on the steps' cubic Hermite interpolant, by Illinois'
-    false position to double precision."""
-    positive = np.flatnonzero(pulse.forces > 0.0)
-    if positive.size == 0:
-        return float(pulse.times[-1])
-    i = int(positive[-1])
-    if i + 1 >= pulse.times.size:
-        return float(pulse.times[-1])
-    t0, t1 = float(pulse.times[i]), float(pulse.times[i + 1])
-    h = t1 - t0
-    dm = float(np.max(pulse.gaps[: i + 1]))
-    gaps, rates = pulse.gaps.tolist(), pulse.rates.tolist()
-
-    def sign(u):  # the sign of the force before its clip at 0, at the fraction u of the step
-        d, rate, _ = _hermite(u, h, gaps, rates, i)
-        if d <= 0.0:
-            return d
-        if dy != math.inf:
-            return _yield_sign(d, rate, mu, b, dy, dm)
-        return 1.0 + mu * rate if b == 0.0 else d + (mu * d + b) * rate
-
-    lo, hi = 0.0, 1.0
-    f_lo, f_hi = sign(lo), sign(hi)
-    if not (f_lo > 0.0 and f_hi <= 0.0):
-        return t1
-    side = 0
-    for _ in range(200):
-        mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        if not lo < mid < hi:
-            mid = 0.5 * (lo + hi)
-        f_mid = sign(mid)
-        if f_mid > 0.0:
-            lo, f_lo = mid, f_mid
-            if side == 1:
-                f_hi *= 0.5
-            side = 1
-        else:
-            hi, f_hi = mid, f_mid
-            if side == -1:
-                f_lo *= 0.5
-            side = -1
-        if (hi - lo) * h <= 4e-16 * t1 or f_mid == 0.0:
-            break
-    return t0 + hi * h
-
-
-def _yield_sign(d, rate, mu, b, dy, dm) -> float:
-    """The sign of Thornton's lossy force ``a + (mu a + b r) delta'`` (``yield_law``'s ``a``
-    and ``r`` at ``d``, m, after the largest penetration ``dm``, m) before its clip at 0;
-    below the residual penetration (``a = 0``) ``-1``."""
-    a, r, _, _ = yield_law(d, dy, dm)
-    if a <= 0.0:
-        return -1.0
-    return a + (mu * a + b * r) * rate
-
-
-def _hermite(u, h, gaps, rates, i):
-    """The cubic Hermite interpolant of the penetrations ``gaps`` (m) and their rates
-    ``rates`` (m/s) at the fraction ``u`` of the steps ``i`` of length ``h`` (s): the
-    penetration (m), its rate (m/s) and its acceleration (m/s^2)."""
-    d0, d1 = gaps[i], gaps[i + 1]
-    r0, r1 = rates[i] * h, rates[i + 1] * h
-    u2, u3 = u * u, u * u * u
-    delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
-        u3 - u2
-    ) * r1
-    rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
-    rate += (3 * u2 - 2 * u) * r1 / h
-    accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (h * h)
-    return delta, rate, accel
-
-
-def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
-    """A fresh float array of the band's modes' values followed by the lumped modes'."""
-    return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
 
 
 def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:

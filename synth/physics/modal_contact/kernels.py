@@ -6,23 +6,62 @@ docstring."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import yield_law, yield_potential
 
-# Result columns of the kernel.
-R_STATUS, R_TIME, R_V, R_U, R_DMAX, R_FMAX, R_IMPULSE = 0, 1, 2, 3, 4, 5, 6
-R_STEPS, R_DAMPING_LOSS, R_DASHPOT_LOSS, R_RIGID_Q, R_RIGID_V = 7, 8, 9, 10, 11
-R_CONTACT_LOSS = 12
-R_COLS = 13
-SEPARATED, SETTLED = 0, 1
+
+class Outcome(NamedTuple):
+    """One contact of :func:`contact_kernel`: whether the ball separated (else it rests on the
+    plate), the time to separation (s), the ball's velocity (m/s, upward) and height (m) then,
+    the largest penetration (m) and force (N), the impulse (N s), the steps, the energies the
+    modes' damping, the residual's dashpot and the contact's loss took (J) and the rigid
+    body's velocity (m/s)."""
+
+    separated: bool
+    time: float
+    v: float
+    u: float
+    dmax: float
+    fmax: float
+    impulse: float
+    steps: int
+    damping_loss: float
+    dashpot_loss: float
+    contact_loss: float
+    rigid_v: float
 
 
-# --------------------------------------------------------------------------------------
-# Kernel
-# --------------------------------------------------------------------------------------
+@compiled(inline="always")
+def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
+    """The root of ``f(x, *args)`` in ``[lo, hi]``, ``f_lo = f(lo) > 0 >= f_hi = f(hi)``:
+    Illinois' false position (Dowell & Jarratt, BIT 11 (1971) 168-174), a bisection where its
+    step leaves the bracket, until the bracket is within ``atol + rtol hi`` or ``f`` is 0.
+    Returns the bracket's end ``hi`` (``f <= 0`` there)."""
+    side = 0
+    for _ in range(200):
+        if hi - lo <= atol + rtol * hi:
+            break
+        x = lo + (hi - lo) * f_lo / (f_lo - f_hi) if f_lo > f_hi else 0.5 * (lo + hi)
+        if not lo < x < hi:
+            x = 0.5 * (lo + hi)
+        fx = f(x, *args)
+        if fx > 0.0:
+            lo, f_lo = x, fx
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        else:
+            hi, f_hi = x, fx
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+            if fx == 0.0:
+                break
+    return hi
 
 
 @compiled()
@@ -54,11 +93,8 @@ def _transition(omega, sigma, h):  # pragma: no cover
 
 
 @compiled()
-def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
-    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
-    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
-    ``P`` rows (P11, P12, P21, P22) the transition matrix of :func:`_transition`, ``G`` rows
-    (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+def _transition_matrix(omega, sigma, h, P):  # pragma: no cover
+    """The rows (P11, P12, P21, P22) of :func:`_transition`'s matrix of each mode over ``h``."""
     for k in range(omega.size):
         s = sigma[k]
         w0 = omega[k]
@@ -67,7 +103,18 @@ def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
         P[k, 1] = e * sn / wd
         P[k, 2] = -e * w0 * w0 / wd * sn
         P[k, 3] = e * (c - s / wd * sn)
-        p = complex(-s, wd)
+
+
+@compiled()
+def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
+    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
+    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
+    ``P`` rows (P11, P12, P21, P22) the transition matrix of :func:`_transition`, ``G`` rows
+    (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+    _transition_matrix(omega, sigma, h, P)
+    for k in range(omega.size):
+        wd = math.sqrt(omega[k] * omega[k] - sigma[k] * sigma[k])
+        p = complex(-sigma[k], wd)
         p1, p2 = _phi12(p * h)
         j0 = h * (p1 - p2)
         j1 = h * p2
@@ -207,7 +254,7 @@ def _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h):  # p
 
 
 @compiled()
-def _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, h):  # pragma: no cover
+def _end_gap(h, q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g):  # pragma: no cover
     """``delta`` after a step ``h`` over which the force falls linearly from ``F0`` to 0."""
     P = np.empty((q.size, 4))
     G = np.empty((q.size, 4))
@@ -243,31 +290,10 @@ def _surface_velocity(v, vr, xdot):  # pragma: no cover
 
 
 @compiled()
-def contact_kernel(
-    omega,
-    sigma,
-    c,
-    rc,
-    beta,
-    a,
-    q,
-    v,
-    x_res,
-    m,
-    K,
-    n,
-    mu,
-    b,
-    dy,
-    g,
-    v_in,
-    h,
-    max_steps,
-    forces,
-    times,
-    gaps,
-    rates,
-):  # pragma: no cover
+def contact_kernel(  # pragma: no cover
+    omega, sigma, c, rc, beta, a, q, v, x_res, m, K, n, mu, b, dy, g, v_in, h, max_steps,
+    forces, times, gaps, rates,
+):  # fmt: skip
     """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
     the contact law ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``
     (:func:`_lossy_force`; ``mu = b = 0``: elastic), with Thornton's yield past the
@@ -278,7 +304,6 @@ def contact_kernel(
     one: the residual's displacement) are the plate's state at first touch and are advanced
     in place to the end of contact. ``forces``/``times`` receive the force at every step,
     ``gaps``/``rates`` the penetration ``delta`` (m) and its rate (m/s)."""
-    r = np.zeros(R_COLS)
     N = q.size
     P = np.empty((N, 4))
     G = np.empty((N, 4))
@@ -319,42 +344,16 @@ def contact_kernel(
     rates[0] = v_in
     for k in range(N):
         rates[0] += v[k]
-    status = SETTLED
+    separated = False
     steps = 0
     for i in range(max_steps):
         wf = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
         A = wf - (u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m))
         if A <= 0.0:
-            # the gap opens within this step: find h' with delta(h') = 0, force falling to 0
-            # Illinois' false position on [0, h]: gap(0) = delta > 0 >= gap(h) = A
-            lo = 0.0
-            hi = h
-            g_lo = (F0 / K) ** (1.0 / n)  # delta at the start of the step
-            if dy is not None:
-                g_lo = gaps[i]
-            g_hi = A
-            side = 0
-            for _ in range(100):
-                if g_lo - g_hi > 0.0:
-                    mid = lo + (hi - lo) * g_lo / (g_lo - g_hi)
-                else:
-                    mid = 0.5 * (lo + hi)
-                if not (lo < mid < hi):
-                    mid = 0.5 * (lo + hi)
-                gap = _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, mid)
-                if gap > 0.0:
-                    lo, g_lo = mid, gap
-                    if side == 1:
-                        g_hi *= 0.5
-                    side = 1
-                else:
-                    hi, g_hi = mid, gap
-                    if side == -1:
-                        g_lo *= 0.5
-                    side = -1
-                if hi - lo <= 1e-13 * h or gap == 0.0:
-                    break
-            hh = hi
+            # the gap opens within this step: the step h' to delta(h') = 0, force falling to 0
+            g_lo = gaps[i] if dy is not None else (F0 / K) ** (1.0 / n)  # delta at the start
+            gap_args = (q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g)
+            hh = illinois(_end_gap, gap_args, 0.0, h, g_lo, A, 1e-13 * h, 0.0)
             Pe = np.empty((N, 4))
             Ge = np.empty((N, 4))
             _mode_coefficients(omega, sigma, hh, Pe, Ge)
@@ -377,7 +376,7 @@ def contact_kernel(
             times[i + 1] = t
             gaps[i + 1] = 0.0
             rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
-            status = SEPARATED
+            separated = True
             steps = i + 1
             break
         if plain:
@@ -424,20 +423,10 @@ def contact_kernel(
         # the plastic work: the elastic-plastic force's work less the energy it still holds
         end = gaps[steps]
         contact_loss += work - (K * yield_potential(end, dy, dmax) if end > 0.0 else 0.0)
-    r[R_STATUS] = status
-    r[R_TIME] = t
-    r[R_V] = vs
-    r[R_U] = u
-    r[R_DMAX] = dmax
-    r[R_FMAX] = fmax
-    r[R_IMPULSE] = impulse
-    r[R_STEPS] = steps
-    r[R_DAMPING_LOSS] = damping_loss
-    r[R_DASHPOT_LOSS] = dashpot_loss
-    r[R_RIGID_Q] = qr
-    r[R_RIGID_V] = vr
-    r[R_CONTACT_LOSS] = contact_loss
-    return r
+    return Outcome(
+        separated, t, vs, u, dmax, fmax, impulse, steps, damping_loss, dashpot_loss,
+        contact_loss, vr,
+    )  # fmt: skip
 
 
 @compiled()
@@ -473,19 +462,23 @@ def _surface(omega, sigma, q0, v0, x_res, rate, s, q, v):  # pragma: no cover
 
 
 @compiled()
+def _touch_gap(
+    t, omega, sigma, q0, v0, x_res, rate, height, speed, gravity, q, v
+):  # pragma: no cover
+    """The ball's height (m) over the ringing surface of :func:`_surface` at ``t`` (s)."""
+    gap = height + speed * t - 0.5 * gravity * t * t
+    return gap - _surface(omega, sigma, q0, v0, x_res, rate, t, q, v)
+
+
+@compiled()
 def first_touch(  # pragma: no cover
     omega, sigma, q0, v0, x_res, rate, height, speed, gravity, dt, s0, end
 ):
     """The first time in ``[s0, end]`` (s) at which a ball at ``height`` (m) rising at
-    ``speed`` (m/s) under ``gravity`` (m/s^2) meets the surface ringing from the state
-    (as :func:`_surface`), or ``end`` if it does not.
-
-    The gap is sampled in steps of ``dt`` (s), the modes carried from step to step by their
-    transition matrices over ``dt`` (exact for free ringing, to rounding); the first sign
-    change is then closed on the surface evaluated afresh at each trial time, by Illinois'
-    false position kept inside the bracket (a bisection where it would leave it), to the
-    time resolution of double precision. The time returned is the bracket's end where the
-    gap is <= 0."""
+    ``speed`` (m/s) under ``gravity`` (m/s^2) meets the surface ringing from the state (as
+    :func:`_surface`), or ``end``: the gap sampled every ``dt`` (s), the modes carried by
+    their transition matrices, the first sign change closed by :func:`illinois` on the
+    surface evaluated afresh, to double precision (the end where the gap is <= 0)."""
     n = q0.size
     q = np.empty(n)
     v = np.empty(n)
@@ -494,12 +487,7 @@ def first_touch(  # pragma: no cover
     # the state at s0, then the transition over one step
     surface = _surface(omega, sigma, q0, v0, x_res, rate, s0, q, v)
     P = np.empty((n, 4))
-    for k in range(n):
-        wd, e, c, sn = _transition(omega[k], sigma[k], dt)
-        P[k, 0] = e * (c + sigma[k] / wd * sn)
-        P[k, 1] = e * sn / wd
-        P[k, 2] = -e * omega[k] * omega[k] / wd * sn
-        P[k, 3] = e * (c - sigma[k] / wd * sn)
+    _transition_matrix(omega, sigma, dt, P)
     tail = x_res * math.exp(-rate * s0)
     tail_step = math.exp(-rate * dt)
     gap0 = height + speed * s0 - 0.5 * gravity * s0 * s0 - surface
@@ -521,37 +509,60 @@ def first_touch(  # pragma: no cover
             surface = _surface(omega, sigma, q0, v0, x_res, rate, s1, q, v)
         gap1 = height + speed * s1 - 0.5 * gravity * s1 * s1 - surface
         if gap1 <= 0.0:
-            return _close_touch(omega, sigma, q0, v0, x_res, rate, height, speed, gravity,
-                                s0, gap0, s1, gap1, q, v)  # fmt: skip
+            args = (omega, sigma, q0, v0, x_res, rate, height, speed, gravity, q, v)
+            return illinois(_touch_gap, args, s0, s1, gap0, gap1, 0.0, 4e-16)
         s0 = s1
         gap0 = gap1
     return end
 
 
 @compiled()
-def _close_touch(  # pragma: no cover
-    omega, sigma, q0, v0, x_res, rate, height, speed, gravity, a, gap_a, b, gap_b, q, v
-):
-    """The touch inside ``[a, b]`` (s), ``gap_a > 0 >= gap_b`` (m): Illinois' false
-    position on the gap, a bisection where its step leaves the bracket, until the bracket is
-    within the spacing of doubles at ``b``; returns ``b``."""
-    side = 0
-    for _ in range(200):
-        if b - a <= 4e-16 * b:
-            break
-        t = (a * gap_b - b * gap_a) / (gap_b - gap_a)
-        if not a < t < b:
-            t = 0.5 * (a + b)
-        gap = height + speed * t - 0.5 * gravity * t * t
-        gap -= _surface(omega, sigma, q0, v0, x_res, rate, t, q, v)
-        if gap > 0.0:
-            a, gap_a = t, gap
-            if side == 1:
-                gap_b *= 0.5
-            side = 1
-        else:
-            b, gap_b = t, gap
-            if side == -1:
-                gap_a *= 0.5
-            side = -1
-    return b
+def hermite(u, h, gaps, rates, i):  # pragma: no cover
+    """The cubic Hermite interpolant of the penetrations ``gaps`` (m) and their rates
+    ``rates`` (m/s) at the fraction ``u`` of the steps ``i`` of length ``h`` (s): the
+    penetration (m), its rate (m/s) and its acceleration (m/s^2)."""
+    d0, d1 = gaps[i], gaps[i + 1]
+    r0, r1 = rates[i] * h, rates[i + 1] * h
+    u2, u3 = u * u, u * u * u
+    delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
+        u3 - u2
+    ) * r1
+    rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
+    rate += (3 * u2 - 2 * u) * r1 / h
+    accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (h * h)
+    return delta, rate, accel
+
+
+@compiled()
+def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
+    """The sign of the lossy force ``K delta^(n-1) (delta + (mu delta + b) delta')`` before
+    its clip at 0 (Thornton's ``a + (mu a + b r) delta'`` with a yield ``dy``, m, after the
+    largest penetration ``dm``, m; -1 below the residual penetration) at the fraction ``u``
+    of step ``i`` of the :func:`hermite` interpolant."""
+    d, rate, _ = hermite(u, h, gaps, rates, i)
+    if d <= 0.0:
+        return d
+    if dy != math.inf:
+        a, r, _, _ = yield_law(d, dy, dm)
+        return -1.0 if a <= 0.0 else a + (mu * a + b * r) * rate
+    return 1.0 + mu * rate if b == 0.0 else d + (mu * d + b) * rate
+
+
+@compiled()
+def force_end(times, forces, gaps, rates, mu, b, dy):  # pragma: no cover
+    """The end of a lossy contact's force pulse (s from first touch), before the
+    penetration's: the last time :func:`_force_sign` falls to 0 between the steps ``times``
+    (s), to double precision."""
+    last = times.size - 1
+    i = last
+    while i >= 0 and not forces[i] > 0.0:
+        i -= 1
+    if i < 0 or i == last:
+        return times[last]
+    t0, t1 = times[i], times[i + 1]
+    h = t1 - t0
+    args = (h, gaps, rates, i, mu, b, dy, np.max(gaps[: i + 1]))
+    f_lo, f_hi = _force_sign(0.0, *args), _force_sign(1.0, *args)
+    if not (f_lo > 0.0 and f_hi <= 0.0):
+        return t1
+    return t0 + illinois(_force_sign, args, 0.0, 1.0, f_lo, f_hi, 4e-16 * t1 / h, 0.0) * h
