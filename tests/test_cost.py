@@ -382,7 +382,7 @@ def test_the_estimates_rule_is_the_one_plate_gains_takes_with_its_max_points():
             if r.rules < 2:
                 continue  # refused: nothing runs
             max_points = rad.DEFAULT_MAX_POINTS if r.max_points is None else r.max_points
-            problem = cost.radiation.radiation_problem(plate, microphone, modes, f_max, max_points)
+            problem = cost.estimates.radiation_problem(plate, microphone, modes, f_max, max_points)
             chosen = choose_rule(problem)
             assert r.rule == chosen.rule.name and chosen.fits, (side, work, r.rule, max_points)
             seen.add(r.rule)
