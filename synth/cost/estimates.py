@@ -31,6 +31,7 @@ from synth.cost.records import (
 )
 from synth.errors import ParameterError
 from synth.sound.options import RenderOptions
+from synth.sound.radiation.common import CHUNK_BYTES, MAX_RULES, REFINE
 from synth.sound.radiation.rules import weighted_counts
 
 
@@ -152,8 +153,6 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
 def _rules_taken(points, max_points: int | None) -> int:
     """Rules a refinement takes with ``max_points`` (None: no cut): after its first two it
     stops before a rule of more points."""
-    from synth.sound.radiation.common import MAX_RULES
-
     taken = 2
     while taken < MAX_RULES and (max_points is None or points[taken] <= max_points):
         taken += 1
@@ -164,10 +163,7 @@ def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
     """The :class:`RadiationWork` of the counts ``rule`` with the most rules whose summed
     work (rectangle-term equivalents) fits ``budget``: the ``max_points`` that stops the
     refinement there and the rules it then takes; one rule (refused) if not even two fit."""
-    from synth.sound.radiation.common import MAX_RULES
-
     rule = weighted_counts(rule)
-
     rules, cut = 1, int(rule.points[0])
     for last in range(MAX_RULES, 1, -1):
         candidate = None if last == MAX_RULES else int(rule.points[last - 1])
@@ -212,7 +208,6 @@ def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
     bending plus acoustic wavenumber of ``f_max`` (Hz), at most ``CHUNK_BYTES``."""
     from synth.physics.scene import Microphone
     from synth.sound.radiation import rectangle_points
-    from synth.sound.radiation.common import CHUNK_BYTES, REFINE
 
     if not isinstance(listener, Microphone) or modes == 0:
         return 0

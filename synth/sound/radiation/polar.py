@@ -10,8 +10,8 @@ radius; a whole circle is ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean value theorem 
 Helmholtz equation), so each radius sums the shorter of the arcs on or off the plate. For
 ``phi_k = sum_ij C_kij X_i Y_j`` the angular sums ``A_ij`` serve every mode and ``Phi_k =
 sum_ij C_kij A_ij`` (:meth:`synth.physics.modes.SummedShapes.combine`). Angular points:
-Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger,
-:mod:`~.angular`); radial panels with breakpoints where the arcs change (:mod:`~.radial`).
+Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger), radial
+panels with breakpoints where the arcs change (both :mod:`~.angular`).
 Each mode is refined alone (:func:`~.common.refine`). The in-phase bounds ``S_k`` come from a
 rectangle rule that resolves the shapes but not the acoustic phase. Blocks of radii run on
 numba's threads, their sums added in a fixed order.
