@@ -125,8 +125,11 @@ def _estimate(scene, options) -> cost.CostEstimate:
 @pytest.fixture(scope="module")
 def warm():
     """Every kernel and module a render uses loaded once (their first use allocates
-    objects of the interpreter that no scene's size sets)."""
+    objects of the interpreter that no scene's size sets), the bounces' on a thin steel
+    plate too (a narrower band of that scene: else the first use of its contact's code
+    counts in the peak traced when it runs first)."""
     for data in (
+        _variant(SCENES["bounces"], render__max_frequency=2000.0),
         SMALL,
         _variant(
             SMALL,
