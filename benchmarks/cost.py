@@ -99,7 +99,7 @@ def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
     "polar", "summed" or "banded", :mod:`synth.sound.radiation.rules`) for
     ``listener`` (a Microphone) hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz),
     whichever rule the engine would take."""
-    from synth.cost.radiation import radiation_problem
+    from synth.cost.estimates import radiation_problem
     from synth.sound.radiation.rules import RULES
 
     problem = radiation_problem(plate, listener, modes, f_max)

@@ -2,7 +2,7 @@
 
 For every shipped preset (at 48 kHz), the plates of ``synth bench scale`` (its ladder and its
 random scenes) and the default board at the rates of ``synth bench hires``, the microphone's
-radiation problem (:func:`synth.cost.radiation.radiation_problem`, nothing solved), the cost
+radiation problem (:func:`synth.cost.estimates.radiation_problem`, nothing solved), the cost
 of each rule that takes its shapes (:meth:`synth.sound.radiation.rules.Rule.cost`: the first
 rule and its check rule in rectangle-term equivalents, over the shipped rectangle rate: the
 estimated seconds on the machine that recorded the rates) and the rule
@@ -41,9 +41,8 @@ def _scenes() -> list:
 def run_rules() -> dict:
     """``rows``, one per scene with a microphone: its shapes, modes, each rule's estimated
     seconds (absent where the rule does not apply) and the rule chosen."""
-    from synth.cost import Rates
-    from synth.cost.modal import modal_count
-    from synth.cost.radiation import radiation_problem
+    from synth.cost import Rates, modal_count
+    from synth.cost.estimates import radiation_problem
     from synth.physics.scene import Microphone
     from synth.sound.radiation.rules import RULES, choose_rule
 

@@ -33,8 +33,7 @@ from synth.physics.modes.ritz import (
     solve_class,
 )
 from synth.physics.scene import Plate
-from synth.sound.modal_bank.coefficients import highest_frequency
-from synth.sound.modal_bank.pulse import grid_size, transform_workspace
+from synth.sound.modal_bank.pulse import grid_size, highest_frequency, transform_workspace
 from synth.sound.modal_bank.transform_kernels import impact_transform
 from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
 

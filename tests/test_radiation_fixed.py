@@ -50,7 +50,7 @@ def _random_microphones(plate, n, seed):
 
 def _assert_within_two_tol(grid, m, s, kb, microphones):
     # each rule is within tol of the integral, relative to max(|H_k|, 1e-4 S_k) (the
-    # refinement's test, synth.sound.radiation.refinement): the two within 2 tol of each other
+    # refinement's test, synth.sound.radiation.common.refine): the two within 2 tol of each other
     for mic in microphones:
         r0 = nearest_distance(m.plate, Microphone(mic))
         exact = R.plate_gains(

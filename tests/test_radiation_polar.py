@@ -13,7 +13,7 @@ from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
 from synth.sound import radiation as R
 from synth.sound.radiation import angular
-from synth.sound.radiation.refinement import refine
+from synth.sound.radiation.common import refine
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 

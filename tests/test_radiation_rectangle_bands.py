@@ -131,8 +131,8 @@ def _sheet_problem(side, f_max, max_points=None):
     """The radiation problem of a 1 mm steel sheet ``side`` x ``side`` m past the Ritz
     crossover to ``f_max`` Hz, microphone 0.3 m above its middle (nothing solved)."""
     from synth import Microphone, Plate
-    from synth.cost.modal import modal_count
-    from synth.cost.radiation import radiation_problem
+    from synth.cost import modal_count
+    from synth.cost.estimates import radiation_problem
 
     plate = Plate("steel", thickness=0.001, length=side, width=side)
     microphone = Microphone((side / 2, side / 2, 0.3))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from synth import Microphone, Plate
-from synth.cost.modal import modal_count
-from synth.cost.radiation import radiation_problem
+from synth.cost import modal_count
+from synth.cost.estimates import radiation_problem
 from synth.io.presets import load_preset
 from synth.physics import modes as plate_modes
 from synth.sound import radiation as R

@@ -1,7 +1,7 @@
 """A ball released with a horizontal velocity: its bounces along a path, the grip, the
 rolling resistance, the end at rest or at the edge, the energy balance, and the render that
-mixes bounces and rolling (synth.physics.path, synth.sound.path_render; docs/rolling.md,
-"The ball's path")."""
+mixes bounces and rolling (synth.physics.path, synth.sound.rolling.render_path_audio;
+docs/rolling.md, "The ball's path")."""
 
 from __future__ import annotations
 

@@ -2,13 +2,12 @@
 (docs/cli.md, "The cost of a render, and its budget").
 
 Every size is estimated from the scene and options before the modes, gains or bounces are
-computed, so work beyond the budget is refused before it starts: the modes
-(:mod:`~synth.cost.modal`: the asymptotic modal density ``N(omega) = S omega / (4 pi)
-sqrt(rho h / D)``, Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118,
-and the solver's flops by LAPACK's counts, Golub & Van Loan, *Matrix Computations*, 4th
-ed., 8.3); the longest contact and the audio (:mod:`~synth.cost.estimates`); the radiation
-rule's terms (:mod:`~synth.cost.radiation`, counted by :mod:`synth.sound.radiation.rules`
-and weighed by the shipped rates, so a cut does not depend on the machine); and memory
+computed, so work beyond the budget is refused before it starts: the modes (the asymptotic
+modal density ``N(omega) = S omega / (4 pi) sqrt(rho h / D)``, Cremer, Heckl & Petersson,
+*Structure-Borne Sound*, 3rd ed., eq. 5.118, and the solver's flops by LAPACK's counts,
+Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3); the longest contact and the audio;
+the radiation rule's terms (counted by :mod:`synth.sound.radiation.rules` and weighed by
+the shipped rates, so a cut does not depend on the machine); and memory
 (:class:`MemoryParts`, an upper estimate of the traced peak).
 
 :func:`estimate_render` and :func:`body_cost` (a live body, checked by :func:`check_body`)
@@ -29,9 +28,10 @@ from synth.cost.estimates import (
     estimate,
     estimate_render,
     hertz_contact_time,
+    modal_count,
+    radiation_work,
+    solver_cost,
 )
-from synth.cost.modal import modal_count, solver_cost
-from synth.cost.radiation import radiation_work
 from synth.cost.records import (
     AUDIO_BYTES_PER_SAMPLE,
     BODY_MEMORY_ADVICE,

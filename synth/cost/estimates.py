@@ -1,7 +1,10 @@
 """The whole estimates: a render's (:func:`estimate`, :func:`estimate_render` from its
-options) and a live body's (:func:`body_cost`, checked by :func:`check_body`); the longest
-contact of a bounce series and the audio's length, from the first impact solved alone on the
-infinite plate and Hertz' law for the later ones.
+options) and a live body's (:func:`body_cost`, checked by :func:`check_body`); the plate's
+modes below a frequency, counted from the lattice of its wavenumbers before any is solved,
+and the cold mode solver's size and flops; the radiation stage's work for a microphone (the
+rule the engine takes, the points and terms of its rules, the bytes of the sums); the
+longest contact of a bounce series and the audio's length, from the first impact solved
+alone on the infinite plate and Hertz' law for the later ones.
 """
 
 from __future__ import annotations
@@ -9,18 +12,211 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from synth.cost.modal import modal_count, solver_cost
-from synth.cost.radiation import radiation_bytes, radiation_work
+import numpy as np
+
+from synth.constants import SOUND_SPEED
 from synth.cost.records import (
     AUDIO_BYTES_PER_SAMPLE,
+    CHECK_SQUARES,
     MODE_VALUES,
+    RADIATION_CHUNKS,
+    RADIATION_TOL,
+    SOLVER_SQUARES,
     BodyCost,
     Budget,
     CostEstimate,
     MemoryParts,
+    RadiationWork,
+    SolverCost,
 )
 from synth.errors import ParameterError
 from synth.sound.options import RenderOptions
+from synth.sound.radiation.common import CHUNK_BYTES, MAX_RULES, REFINE
+from synth.sound.radiation.rules import weighted_counts
+
+
+def bending_wavenumber(plate, f_max: float) -> float:
+    """The bending wavenumber at ``f_max`` (Hz), rad/m."""
+    omega = 2.0 * math.pi * f_max
+    return math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
+
+
+def modal_count(plate, max_frequency: float) -> int:
+    """Modes of ``plate`` below ``max_frequency`` (Hz): the wavenumber lattice of the
+    rectangle, ``(m pi / a)^2 + (n pi / b)^2 <= k^2`` with ``k^4 = omega^2 rho h / D``,
+    counted exactly (``m, n >= 1`` for simply supported edges, where it is the exact count).
+    Its area term is the asymptotic modal density ``S omega / (4 pi) sqrt(rho h / D)``
+    (Cremer, Heckl & Petersson, eq. 5.118); the lattice adds the edges' share, which
+    dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
+    Clamped edges are counted as simply supported (their wavenumbers lie half a step
+    higher). Free edges: :func:`_free_modal_count`."""
+    k = bending_wavenumber(plate, max_frequency)
+    if plate.boundary == "free":
+        return _free_modal_count(plate, k)
+    kx, ky = k * plate.length / math.pi, k * plate.width / math.pi  # lattice radii
+    n = np.arange(1, int(math.floor(ky)) + 1, dtype=float)
+    rows = np.floor(kx * np.sqrt(np.maximum(1.0 - (n / ky) ** 2, 0.0)))
+    return int(np.sum(np.maximum(rows, 0.0)))
+
+
+def _free_modal_count(plate, k: float) -> int:
+    """Modes of a free ``plate`` whose bending wavenumber ``k`` (rad/m) is the band's top: the
+    free beam's functions along each side (Warburton, Proc. Inst. Mech. Eng. 168, 371 (1954);
+    Blevins' single-span beams) counted on the lattice ``q_x^2 + q_y^2 <= k^2``, plus the
+    twisting modes up to ``q_T^2 = (sqrt(g^2 + 4 k^4) - g) / 2``, ``g = 24 (1 - nu) / b^2``
+    (the derivation: docs/cli.md, "The cost of a render, and its budget"), ``w = x y`` once."""
+    a, b = plate.length, plate.width
+    nu = plate.material.poisson
+    qx, qy = _free_beam_wavenumbers(k, a), _free_beam_wavenumbers(k, b)
+    reach = np.sqrt(np.maximum(k * k - qy * qy, 0.0))
+    bending = int(np.sum(np.searchsorted(qx, reach, side="right")))
+    twist_x = _twisting_count(k, a, 24.0 * (1.0 - nu) / (b * b))
+    twist_y = _twisting_count(k, b, 24.0 * (1.0 - nu) / (a * a))
+    return bending + twist_x + twist_y - (1 if twist_x >= 2 and twist_y >= 2 else 0)
+
+
+def _free_beam_wavenumbers(k: float, length: float) -> np.ndarray:
+    """The free beam's wavenumbers up to ``k`` (rad/m) on ``length`` m, rigid rotation
+    left out (:func:`_free_modal_count`): 0, then ``(j - 1/2) pi / length``, ``j >= 2``."""
+    j = np.arange(2, int(k * length / math.pi + 0.5) + 1, dtype=float)
+    return np.concatenate(([0.0], (j - 0.5) * math.pi / length))
+
+
+def _twisting_count(k: float, length: float, g: float) -> int:
+    """Twisting modes ``q = m pi / length <= q_T`` (``m >= 0``) of :func:`_free_modal_count`,
+    ``g`` (1/m^2) the torsional term of their dispersion."""
+    q_t = math.sqrt(0.5 * (math.sqrt(g * g + 4.0 * k**4) - g))
+    return int(math.floor(q_t * length / math.pi)) + 1
+
+
+def solver_cost(plate, f_max: float, modes: int) -> SolverCost:
+    """The :class:`SolverCost` of ``plate``'s ``modes`` modes up to ``f_max`` (Hz)."""
+    from synth.physics import modes as plate_modes
+
+    main, check = plate_modes.solver_sizes(plate, f_max)
+    flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)
+    flops += sum(n**3 / 3 + 2 * n**3 / 3 + 4 * n**3 / 3 for n in check)
+    return SolverCost(
+        unknowns=max(main + check, default=0),
+        flops=float(flops),
+        solver_bytes=8 * max(SOLVER_SQUARES * max(main, default=0) ** 2,
+                             CHECK_SQUARES * max(check, default=0) ** 2),
+        shapes_bytes=8 * max(main, default=0) * modes,
+    )  # fmt: skip
+
+
+def _acoustic(f_max: float) -> float:
+    """The acoustic wavenumber at ``f_max`` (Hz), rad/m."""
+    return 2.0 * math.pi * f_max / SOUND_SPEED
+
+
+def _crossed(plate, f_max: float) -> bool:
+    """Whether ``plate``'s modes up to ``f_max`` (Hz) pass the Ritz crossover (a free or
+    clamped plate with dynamic edge effect modes, :func:`synth.physics.modes.modes`)."""
+    from synth.physics.modes import CROSSOVER_UNKNOWNS, dimensionless_band
+    from synth.physics.modes.ritz import ritz_unknowns
+
+    if plate.boundary == "simply-supported":
+        return False
+    omega = dimensionless_band(plate, f_max)
+    return ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS
+
+
+def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None):
+    """The :class:`synth.sound.radiation.rules.Problem` of ``listener`` (a Microphone)
+    hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz) with ``max_points`` (default:
+    the sums' own), before any mode is solved (past the Ritz crossover, its Ritz low band
+    and edge effect modes counted by :func:`modal_count`)."""
+    from synth.sound import radiation as rad
+    from synth.sound.radiation.rules import edge_split, plate_problem
+
+    max_points = rad.DEFAULT_MAX_POINTS if max_points is None else max_points
+    kb = bending_wavenumber(plate, f_max)
+    edge = None
+    if _crossed(plate, f_max):
+        f_low = _ritz_band_frequency(plate, f_max)
+        n_low = modal_count(plate, f_low)
+        edge = edge_split(kb, f_low, f_max, n_low, lambda f: modal_count(plate, f), SOUND_SPEED)
+    return plate_problem(
+        plate,
+        listener.position,
+        modes,
+        f_max,
+        kb=kb,
+        qa=_acoustic(f_max),
+        tol=RADIATION_TOL,
+        max_points=max_points,
+        edge=edge,
+    )
+
+
+def _rules_taken(points, max_points: int | None) -> int:
+    """Rules a refinement takes with ``max_points`` (None: no cut): after its first two it
+    stops before a rule of more points."""
+    taken = 2
+    while taken < MAX_RULES and (max_points is None or points[taken] <= max_points):
+        taken += 1
+    return taken
+
+
+def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
+    """The :class:`RadiationWork` of the counts ``rule`` with the most rules whose summed
+    work (rectangle-term equivalents) fits ``budget``: the ``max_points`` that stops the
+    refinement there and the rules it then takes; one rule (refused) if not even two fit."""
+    rule = weighted_counts(rule)
+    rules, cut = 1, int(rule.points[0])
+    for last in range(MAX_RULES, 1, -1):
+        candidate = None if last == MAX_RULES else int(rule.points[last - 1])
+        taken = _rules_taken(rule.points, candidate)
+        if rule.fixed + float(sum(rule.work[:taken])) <= budget.max_radiation_work:
+            rules, cut = taken, candidate
+            break
+    points = int(sum(rule.points[:rules]))
+    return RadiationWork(
+        rule.rule, int(rule.points[0]), points, terms, float(points) * modes, rules, cut,
+        tuple(int(p) for p in rule.points), tuple(float(w) for w in rule.work),
+        float(rule.fixed), rule.unit,
+    )  # fmt: skip
+
+
+def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) -> RadiationWork:
+    """The :class:`RadiationWork` of ``listener`` hearing ``plate``'s ``modes`` modes up to
+    ``f_max`` (Hz), before any mode is solved, for the rule the render takes, with the rules
+    whose summed work fits ``budget`` (at least the first)."""
+    from synth.physics.modes import shape_terms
+    from synth.physics.scene import Microphone
+    from synth.sound.radiation.rules import choose_rule
+
+    if not isinstance(listener, Microphone) or modes == 0:
+        return RadiationWork()
+    terms = shape_terms(plate, f_max)
+    problem = radiation_problem(plate, listener, modes, f_max)
+    return _fitted(choose_rule(problem).counts, modes, terms, budget)
+
+
+def _ritz_band_frequency(plate, f_max: float) -> float:
+    """The top of the Ritz low band of a plate past the crossover, Hz (its seam with the
+    edge effect modes lies at or below it, :mod:`synth.physics.modes.crossover`)."""
+    from synth.physics.modes import frequency_scale, ritz_band
+
+    return ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
+
+
+def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
+    """Bytes of the chunks of shape values a microphone's Rayleigh sums hold
+    (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule at the
+    bending plus acoustic wavenumber of ``f_max`` (Hz), at most ``CHUNK_BYTES``."""
+    from synth.physics.scene import Microphone
+    from synth.sound.radiation import rectangle_points
+
+    if not isinstance(listener, Microphone) or modes == 0:
+        return 0
+    size = (plate.length, plate.width)
+    kappa = bending_wavenumber(plate, f_max) + _acoustic(f_max)
+    points = rectangle_points(size, kappa, RADIATION_TOL) * REFINE**2
+    chunk = min(float(CHUNK_BYTES), 8.0 * modes * points)
+    return int(RADIATION_CHUNKS * chunk)
+
 
 #: The options of :func:`synth.render` the estimate depends on (:func:`estimate_render`).
 RENDER_OPTIONS = (

@@ -154,7 +154,7 @@ AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
 
 #: Complex values per mode that the modal model and the synthesis hold besides the
 #: transform's workspace: the poles, their one-sample step and the response
-#: coefficients (:func:`synth.sound.modal_bank.coefficients.bank_coefficients`, each also
+#: coefficients (:func:`synth.sound.modal_bank.pulse.bank_coefficients`, each also
 #: as real and imaginary parts), the excitation and output gains, the modes'
 #: frequencies, decay rates and masses, the ring bank's state and masks.
 MODE_VALUES = 20

@@ -39,7 +39,7 @@ from synth.live.heard import HPI, HPR, SEQ_PUT
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
 from synth.physics.rolling_kernels import N_STATE, roll
-from synth.sound.modal_bank.coefficients import response_per_transform
+from synth.sound.modal_bank.pulse import response_per_transform
 from synth.sound.rolling import drive_sample
 
 #: The most integration steps a sample of a live rolling may take, a bound on the audio
@@ -230,7 +230,7 @@ def _take_heard(iv, coef, heard, seq):
 def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
     """A slot's rows (``C_LR``, ``C_LI``, ``C_D``, ``C_OR`` .. ``C_AI``) for the listener's
     complex ``gains`` (K,) of modes of ``poles`` (rad/s) at full-scale factor ``scale``
-    (:func:`synth.sound.modal_bank.coefficients.response_per_transform`)."""
+    (:func:`synth.sound.modal_bank.pulse.response_per_transform`)."""
     p = np.asarray(poles, dtype=complex)
     to_response = response_per_transform(p, scale, 1.0)
     to_direct = scale / (p * p) if accelerometer else np.zeros(p.size, dtype=complex)

@@ -215,8 +215,9 @@ def _render_drop(
 
 
 def _render_moving(scene, o: RenderOptions) -> Render:
-    """:func:`render` of a scene with a horizontal velocity (:mod:`synth.sound.path_render`)."""
-    from synth.sound.path_render import render_path_audio
+    """:func:`render` of a scene with a horizontal velocity
+    (:func:`synth.sound.rolling.render_path_audio`)."""
+    from synth.sound.rolling import render_path_audio
 
     model = _heard_modes(scene, o)
     audio, path, figures = render_path_audio(scene, model, o)

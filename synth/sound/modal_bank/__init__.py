@@ -9,8 +9,8 @@ transforms use the trapezoid rule with one Richardson step (the pulse vanishes l
 corrections inside a contact. Omission: each of the ``K`` modes gets the share
 ``floor * reference / K`` and stops when all it could add stays within it.
 
-Modules in a render's order: :mod:`~.coefficients` (shared per plate and listener),
-:mod:`~.pulse` (one pulse's grid and transforms), :mod:`~.transform_kernels` and
+Modules in a render's order: :mod:`~.pulse` (the coefficients shared per plate and
+listener, one pulse's grid and transforms), :mod:`~.transform_kernels` and
 :mod:`~.bank_kernels` (numba), :mod:`~.synthesis` (:func:`synthesize`).
 """
 
@@ -23,12 +23,13 @@ from synth.sound.modal_bank.bank_kernels import (
     ring_bank,
     ring_modes,
 )
-from synth.sound.modal_bank.coefficients import BankCoefficients, bank_coefficients
 from synth.sound.modal_bank.pulse import (
     LONG_CONTACT_NEPERS,
     PULSE_POINTS,
+    BankCoefficients,
     ImpactExcitation,
     PulseLayout,
+    bank_coefficients,
     impact_excitation,
     pulse_layout,
     samples_in_contact,

@@ -11,8 +11,12 @@ import numpy as np
 from synth.compilation import announce
 from synth.errors import ParameterError
 from synth.sound.modal_bank.bank_kernels import TILE, ring_bank
-from synth.sound.modal_bank.coefficients import bank_coefficients
-from synth.sound.modal_bank.pulse import PULSE_POINTS, impact_excitation, transform_workspace
+from synth.sound.modal_bank.pulse import (
+    PULSE_POINTS,
+    bank_coefficients,
+    impact_excitation,
+    transform_workspace,
+)
 
 
 def synthesize(

@@ -9,7 +9,7 @@ reference delay ``R0 / c`` may be factored out (:func:`distance`, :func:`delay`)
 The rules: :func:`rayleigh_gains` (:mod:`~.rectangle`, any shapes), :func:`separable_gains`
 and :func:`summed_gains` (:mod:`~.polar`, products ``X_i(x) Y_j(y)`` and sums of them), and
 for the dynamic edge effect modes the rectangle rule band by band; :mod:`~.rules` takes the
-cheapest one that holds the convergence test's bound (:mod:`~.refinement`), its cost counted
+cheapest one that holds the convergence test's bound (:func:`~.common.refine`), its cost counted
 before any mode is solved. :func:`plate_gains` computes a :class:`synth.physics.modes.Modes`'
 gains by the chosen rule, kept in memory and on disk (:mod:`~.cache`).
 """
@@ -40,10 +40,10 @@ from synth.sound.radiation.common import (
     check_poles,
     check_settings,
     half_phase,
+    warn_unconverged,
 )
 from synth.sound.radiation.polar import separable_gains, summed_gains
 from synth.sound.radiation.rectangle import rayleigh_gains
-from synth.sound.radiation.refinement import warn_unconverged
 from synth.sound.radiation.rules import choose_rule, edge_split, plate_problem
 
 __all__ = [

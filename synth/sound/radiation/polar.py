@@ -10,9 +10,9 @@ radius; a whole circle is ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean value theorem 
 Helmholtz equation), so each radius sums the shorter of the arcs on or off the plate. For
 ``phi_k = sum_ij C_kij X_i Y_j`` the angular sums ``A_ij`` serve every mode and ``Phi_k =
 sum_ij C_kij A_ij`` (:meth:`synth.physics.modes.SummedShapes.combine`). Angular points:
-Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger,
-:mod:`~.angular`); radial panels with breakpoints where the arcs change (:mod:`~.radial`).
-Each mode is refined alone (:mod:`~.refinement`). The in-phase bounds ``S_k`` come from a
+Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger), radial
+panels with breakpoints where the arcs change (both :mod:`~.angular`).
+Each mode is refined alone (:func:`~.common.refine`). The in-phase bounds ``S_k`` come from a
 rectangle rule that resolves the shapes but not the acoustic phase. Blocks of radii run on
 numba's threads, their sums added in a fixed order.
 """
@@ -28,7 +28,6 @@ import numba
 import numpy as np
 
 from synth.compilation import compiled
-from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.physics.modes import single_thread_product
 from synth.sound.radiation.angular import (
@@ -56,9 +55,10 @@ from synth.sound.radiation.common import (
     check_settings,
     exp_halvings,
     half_phase,
+    refine,
+    warn_unconverged,
 )
 from synth.sound.radiation.rectangle import apply_rule, in_phase_grid
-from synth.sound.radiation.refinement import refine, warn_unconverged
 
 #: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
 #: earlier revision is recomputed).
@@ -333,11 +333,11 @@ def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarS
     return _PolarSetup(size, listener, q_s, checked, q, tol_panel, panels, orders, r_mid, halvings)
 
 
-def _polar_gains(shapes, n_modes, listener_position, s, settings, in_phase, apply, caller):
-    """The gains (a :class:`RadiationResult` if ``settings["full_output"]``) of ``shapes`` by
-    the polar rule whose sums are ``apply`` (as :func:`_apply_separable_rule`), each mode
-    refined alone; ``in_phase(shapes, setup)`` the modes' in-phase integrals."""
-    full_output = settings.pop("full_output")
+def _polar_gains(shapes, n_modes, listener_position, s, settings, full_output, in_phase, apply,
+                 caller):  # fmt: skip
+    """The gains (a :class:`RadiationResult` if ``full_output``) of ``shapes`` by the polar
+    rule whose sums are ``apply`` (as :func:`_apply_separable_rule`), each mode refined alone;
+    ``in_phase(shapes, setup)`` the modes' in-phase integrals."""
     size = (shapes.length, shapes.width)
     setup = _polar_setup(size, n_modes, listener_position, s, settings)
     checked = setup.settings
@@ -371,48 +371,22 @@ def _polar_gains(shapes, n_modes, listener_position, s, settings, in_phase, appl
     return result.gains
 
 
-def separable_gains(
-    shapes,
-    listener_position,
-    s,
-    *,
-    max_wavenumber,
-    air_density=AIR_DENSITY,
-    sound_speed=SOUND_SPEED,
-    reference_distance=None,
-    tol=1e-6,
-    max_points=4_000_000,
-    full_output=False,
-):
+def separable_gains(shapes, listener_position, s, *, full_output=False, **settings):
     """:func:`rayleigh_gains` of shapes ``X_i(x) Y_j(y)`` (``shapes``, a
     :class:`synth.physics.modes.SeparableShapes` with the plate's size), in polar coordinates
-    about the microphone: the same integral, arguments (``max_wavenumber`` bounding every
+    about the microphone: the same integral, keywords (``max_wavenumber`` bounding every
     shape's, rad/m; ``max_points`` the points of one rule), tolerance, convergence test and
     result (``rule`` "polar", ``panels``: the radial panels and 0)."""
     from synth.physics.modes import SeparableShapes
 
     if not isinstance(shapes, SeparableShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
-    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
-                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
-                    max_points=max_points, full_output=full_output)  # fmt: skip
     return _polar_gains(shapes, shapes.x_index.size, listener_position, s, settings,
-                        _separable_in_phase, _apply_separable_rule, "separable_gains")  # fmt: skip
+                        full_output, _separable_in_phase, _apply_separable_rule,
+                        "separable_gains")  # fmt: skip
 
 
-def summed_gains(
-    shapes,
-    listener_position,
-    s,
-    *,
-    max_wavenumber,
-    air_density=AIR_DENSITY,
-    sound_speed=SOUND_SPEED,
-    reference_distance=None,
-    tol=1e-6,
-    max_points=4_000_000,
-    full_output=False,
-):
+def summed_gains(shapes, listener_position, s, *, full_output=False, **settings):
     """:func:`separable_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)`` (``shapes``, a
     :class:`synth.physics.modes.SummedShapes` with the plate's size): about ``N_theta n_x n_y
     + N_r n_basis n_modes / 4`` multiply-adds and ``N_r n_modes`` exponentials per rule."""
@@ -420,8 +394,5 @@ def summed_gains(
 
     if not isinstance(shapes, SummedShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
-    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
-                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
-                    max_points=max_points, full_output=full_output)  # fmt: skip
-    return _polar_gains(shapes, shapes.n_modes, listener_position, s, settings,
+    return _polar_gains(shapes, shapes.n_modes, listener_position, s, settings, full_output,
                         _summed_in_phase, _apply_summed_rule, "summed_gains")  # fmt: skip

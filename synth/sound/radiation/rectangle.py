@@ -41,8 +41,9 @@ from synth.sound.radiation.common import (
     gauss,
     half_phase,
     min_order,
+    refine,
+    warn_unconverged,
 )
-from synth.sound.radiation.refinement import refine, warn_unconverged
 
 #: Shortest panel, relative to the plate's side: a shorter one is a rounding artefact of
 #: the stepping (dropped); the grading never steps by less, so that a microphone on the plate
@@ -295,7 +296,7 @@ def rayleigh_gains(
     wavenumber, rad/m; ``air_density`` > 0, kg/m^3; ``sound_speed`` > 0, m/s;
     ``reference_distance`` ``R0`` >= 0, m, or None: the gains times ``exp(s_k R0 / c)`` (the
     delay taken out, which keeps a damped pole's growth bounded); ``tol`` in [1e-9, 0.1]:
-    ``|error| <= tol * max(|H_k|, 1e-4 S_k)`` (:mod:`~.refinement`); ``max_points`` > 0 the
+    ``|error| <= tol * max(|H_k|, 1e-4 S_k)`` (:func:`~.common.refine`); ``max_points`` > 0 the
     most points of one rule. A ParameterError names a field out of range, NaN or infinite
     shape values, or ``max_points`` too small for the first two rules."""
     if not callable(shape_fn):

@@ -1,7 +1,7 @@
 """The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, their work,
 and the choice among them (:func:`choose_rule`).
 
-Every rule ends with the same convergence test (:mod:`~synth.sound.radiation.refinement`),
+Every rule ends with the same convergence test (:func:`~synth.sound.radiation.common.refine`),
 so each holds the same error bound while its check rule fits ``max_points``; they differ
 in cost, counted before any mode is solved from their own panel builders, per rule of the
 refinement, for the band's largest bending wavenumber ``kb`` and acoustic one ``qa =
