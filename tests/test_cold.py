@@ -75,9 +75,11 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
     # nor what a scene on the plate's impedance does not use: scipy.special (the modes'
     # normalisation took two log-factorials from it) and the plate-coupled contact. The
     # command line reads the analysis options' declaration (synth.analysis.options, for the
-    # flags of synth analyze) and nothing else of the analysis. The plate's modes come from
-    # the cache, as for every render after a scene's first: a fresh mode solve takes its
-    # Gauss-Legendre nodes from scipy.special (a first render fills a private cache)
+    # flags of synth analyze) and nothing else of the analysis, and the banks' options'
+    # declaration (synth.bank.options, for the flags of synth bank) and nothing else of the
+    # banks. The plate's modes come from the cache, as for every render after a scene's
+    # first: a fresh mode solve takes its Gauss-Legendre nodes from scipy.special (a first
+    # render fills a private cache)
     cache = {"SYNTH_CACHE_DIR": str(tmp_path / "cache")}
     out = str(tmp_path / "x.wav")
     render = f"from synth.cli import main\nmain(['render', 'default', '-o', {out!r}])\n"
@@ -87,12 +89,14 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
         + render
         + "analysis = [m for m in sys.modules if m.startswith('synth.analysis.')]\n"
         "print(analysis == ['synth.analysis.options'] or analysis)\n"
-        "print(sorted(m for m in ('synth.live', 'synth.bank', 'sounddevice',"
+        "bank = [m for m in sys.modules if m.startswith('synth.bank.')]\n"
+        "print(bank == ['synth.bank.options'] or bank)\n"
+        "print(sorted(m for m in ('synth.live', 'sounddevice',"
         " 'matplotlib', 'scipy.special', 'synth.physics.modal_contact') if m in sys.modules))\n"
     )
     proc = _python(code, cache)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.splitlines()[-2:] == ["True", "[]"]
+    assert proc.stdout.splitlines()[-3:] == ["True", "True", "[]"]
 
 
 #: A child on an empty numba cache renders the rolling preset (``clean``: nothing compiled

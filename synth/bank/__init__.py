@@ -3,6 +3,7 @@
 manifest; a rerun resumes.
 
 * :mod:`synth.bank.spec`: the TOML spec, checked, and its plan;
+* :mod:`synth.bank.options`: the run's options, declared once (also the CLI's flags);
 * :mod:`synth.bank.run`: the run (:func:`run`): lock, resume, manifest, the final check;
 * :mod:`synth.bank.row`: one row rendered, encoded and measured;
 * :mod:`synth.bank.executors`: where rows render: this process, a pool, a Dask cluster;
@@ -11,16 +12,38 @@ manifest; a rerun resumes.
 ``synth bank SPEC -o DIR`` on the command line.
 """
 
-from synth.bank.run import BankResult, BankRunError, run
-from synth.bank.spec import BankSpec, BankSpecError, PlanItem, load, plan
+#: Where each public name lives, imported on first use (PEP 562): the command line reads the
+#: options' declaration (:mod:`synth.bank.options`) without loading the banks.
+_LAZY = {
+    "BankResult": "run",
+    "BankRunError": "run",
+    "run": "run",
+    "BankSpec": "spec",
+    "BankSpecError": "spec",
+    "PlanItem": "spec",
+    "load": "spec",
+    "plan": "spec",
+}
 
-__all__ = [
-    "BankResult",
-    "BankRunError",
-    "BankSpec",
-    "BankSpecError",
-    "PlanItem",
-    "load",
-    "plan",
-    "run",
-]
+__all__ = list(_LAZY)
+
+
+def __getattr__(name):
+    """The public name or submodule ``name``, imported on first use (PEP 562)."""
+    import importlib
+
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    else:
+        try:
+            value = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":  # a module it needs is missing
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -18,6 +18,7 @@ import numpy as np
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.executors import BankRunError, Dask, Pool, Serial, connect, hold_lock
+from synth.bank.options import OPTIONS
 from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
 from synth.bank.spec.model import spec_integer
@@ -371,36 +372,6 @@ def _jobs(jobs) -> int:
     if jobs is None:
         return os.cpu_count() or 1
     return spec_integer("jobs", jobs, 1, "must be an integer >= 1 (worker processes)")
-
-
-#: The options of :func:`run`, also the flags of ``synth bank``: name: (argparse keywords,
-#: what it does).
-OPTIONS = {
-    "jobs": (
-        {"type": int, "metavar": "N"},
-        "worker processes (default: the cores; 1 renders here)",
-    ),
-    "scheduler": (
-        {"metavar": "ADDRESS"},
-        "run on a Dask cluster (a scheduler's address tcp://host:8786, or a client) instead "
-        "of local workers",
-    ),
-    "dry_run": (
-        {"action": "store_true"},
-        "change nothing: list the rows to render (JSON lines) and estimate the time from a "
-        "few rows run in a scratch folder",
-    ),
-    "force": (
-        {"action": "store_true"},
-        "start over in a folder made by another spec (deletes its files)",
-    ),
-    "redo": ({"metavar": "ROWS"}, "render these rows again although complete (e.g. 17,40-45)"),
-    "prune": (
-        {"action": "store_true"},
-        "delete the audio files in the folder that are in neither the manifest nor the plan "
-        "(without it they are only reported)",
-    ),
-}
 
 
 def run(

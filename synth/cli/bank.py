@@ -32,7 +32,7 @@ def _cmd_bank(args):
         return 0
     if args.output is None:
         raise bank.BankSpecError("-o DIR is required to render a bank (the folder of its files)")
-    from synth.bank.run import OPTIONS
+    from synth.bank.options import OPTIONS
 
     result = bank.run(args.spec, args.output, **{name: getattr(args, name) for name in OPTIONS})
     if args.dry_run:
@@ -71,7 +71,7 @@ def add_bank_parser(sub) -> None:
         metavar="DIR",
         help="folder of the files, manifest.csv/.jsonl and the stored spec (required to render)",
     )
-    from synth.bank.run import OPTIONS
+    from synth.bank.options import OPTIONS
 
     for name, (keywords, text) in OPTIONS.items():
         p.add_argument("--" + name.replace("_", "-"), help=text, **keywords)
