@@ -24,6 +24,7 @@ LAYERS = (
         "constants",
         "checks",
         "jitcache",
+        "lazy",
         "compilation",
         "vecmath",
         "dsp",

@@ -9,6 +9,8 @@ Stages, one module each: options and settings, clipping, whitening (step 1), det
 2-4), series (3, 6), deflation (5), resonator (7), ringing (9), measures, validity, pipeline
 (:func:`analyze`), report and plotting."""
 
+from synth.lazy import lazy_names
+
 #: Where each public name lives, imported on first use (PEP 562): the command line reads the
 #: options' declaration without loading the analysis.
 _LAZY = {
@@ -45,22 +47,4 @@ _LAZY = {
 __all__ = list(_LAZY)
 
 
-def __getattr__(name):
-    """The public name or submodule ``name``, imported on first use (PEP 562)."""
-    import importlib
-
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
-    else:
-        try:
-            value = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{name}":  # a module it needs is missing
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

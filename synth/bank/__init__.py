@@ -12,6 +12,8 @@ manifest; a rerun resumes.
 ``synth bank SPEC -o DIR`` on the command line.
 """
 
+from synth.lazy import lazy_names
+
 #: Where each public name lives, imported on first use (PEP 562): the command line reads the
 #: options' declaration (:mod:`synth.bank.options`) without loading the banks.
 _LAZY = {
@@ -28,22 +30,4 @@ _LAZY = {
 __all__ = list(_LAZY)
 
 
-def __getattr__(name):
-    """The public name or submodule ``name``, imported on first use (PEP 562)."""
-    import importlib
-
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
-    else:
-        try:
-            value = importlib.import_module(f"{__name__}.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"{__name__}.{name}":  # a module it needs is missing
-                raise
-            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)
