@@ -544,7 +544,7 @@ def run_live(seconds=30.0) -> dict:
 
 def format_live(result) -> str:
     """The live benchmark as Markdown, with the targets and whether they are met."""
-    from synth.live.engine import MAX_VOICES
+    from synth.live.voice import MAX_VOICES
     from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
 
     rows = result["callback"]

@@ -11,7 +11,7 @@ import pytest
 
 import synth
 from synth.errors import ParameterError, SynthError
-from synth.live.hits import HIT_RTOL
+from synth.live.voice import HIT_RTOL
 from synth.physics.bounces import BounceSequence, Impact
 from synth.physics.contact import solve_impact
 
@@ -237,38 +237,18 @@ def test_a_full_ring_refuses_and_counts(scene):
 
 
 def silence(ring):
-    """kernel.silence of a body of 3 modes and one voice slot whose pending ring is ``ring``."""
-    from synth.live import kernel
+    """stop_all (kernel.silence) at once of a body of 3 modes and one voice slot whose
+    pending ring is ``ring``; returns the engine's event ring."""
+    from synth.live import native
     from synth.live import state as st
 
-    arrays = st.body_arrays(
-        synth.sound.modal_bank.bank_coefficients(
-            np.array([-1.0 + 100.0j] * 3), np.ones(3), np.ones(3), float(FS)
-        ),
-        np.zeros((3, 2, 33)),
-        kernel.body_state(3, 1),
-        ring,
-        1e-4,
-        1.0,
-        steal_frames=4,
-        gains=np.ones(3),
+    state = st.EngineState(st.EngineOptions(samplerate=FS, max_bodies=1, callback="python"))
+    c = synth.sound.modal_bank.bank_coefficients(
+        np.array([-1.0 + 100.0j] * 3), np.ones(3), np.ones(3), float(FS)
     )
-    a = arrays
-    modal = tuple(a[k] for k in ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2"))
-    ring_form = tuple(
-        a[k] for k in ("state", "inject", "first", "length", "amplitudes", "response", "reference")
-    ) + (a["voice"],)
-    voice_form = tuple(a[k] for k in ("voices", "voice_gain", "voice_slots", "slot_gain", "tail"))
-    events = np.zeros(kernel.N_EVENT_HEADER + 8, dtype=np.int64)
-    kernel.silence(
-        modal + tuple(a[k] for k in ("level", "park_r", "park_i", "park_at")),
-        ring_form,
-        a["transformed"],
-        voice_form,
-        a["counters"],
-        events,
-    )
-    return events
+    index = state.add_body(c, np.ones(3), ring, st.BodySettings())
+    native.silence_body(state.ctl, state.records[index][0])
+    return state.events
 
 
 def test_a_slot_being_filled_is_neither_played_nor_dropped():
@@ -301,7 +281,7 @@ def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
     slots = [ring.reserve(pulse=True) for _ in range(4)]
     assert slots[3] == -1 and ring.refused == 1
     for i in slots[:3]:
-        ring.publish_pulse(i, 10, 5, 2, 5)
+        ring.publish(i, 10, 5, 2, points=5)
     assert ring.pending() == 3
     silence(ring)
     assert ring.pending() == 0 and ring.transformed[0] == 3
@@ -1418,7 +1398,7 @@ def test_modes_the_old_listener_left_out_ring_for_the_new_one(scene):
     moved, body = heard_by(scene, centre, floor_db, move_to=new, at_block=k)
     exact, _ = heard_by(scene, new, EXACT_DB)
     first, _ = heard_by(scene, centre, floor_db, blocks=k)
-    level = float(np.max(body._ears[0]._state_arrays["level"]))  # the voice's heard peak
+    level = float(np.max(body._ears[0]._arrays["level"]))  # the voice's heard peak
     budget = 10.0 ** (floor_db / 20.0) * level  # level: output units (full scale 1)
     tol = budget + 2 * float32_ulp_of_peak(exact)
     assert np.max(np.abs(moved - exact)[(k + 1) * n :]) <= tol

@@ -1,7 +1,5 @@
-"""Memory ordering between the trigger threads and the audio thread: a slot is handed over
-by writing its data, then its state word, and read in the other order. ARM64 may reorder
-either (x86 does not), so both sides put a full fence between them (:func:`publish`,
-:func:`fence`).
+"""Memory ordering between trigger threads and the audio thread: data, then a fence, then the
+state word (read in the other order); ARM64 may reorder either side without the fence.
 """
 
 from __future__ import annotations

@@ -16,16 +16,27 @@ from synth.live import heard as hd
 from synth.live import kernel, native, rolling
 from synth.live import state as st
 from synth.live.atomics import fence
-from synth.live.hits import HIT_RTOL, MAX_GAIN, MAX_SPEED, Trigger, check_height, closed, trigger
 from synth.live.queue import PendingRing
-from synth.live.voice import Voice, check_priority, stop_frames, stop_records
+from synth.live.state import BodySettings
+from synth.live.voice import (
+    HIT_RTOL,
+    MAX_GAIN,
+    MAX_SPEED,
+    Trigger,
+    Voice,
+    check_height,
+    check_priority,
+    closed,
+    stop_frames,
+    stop_records,
+    trigger,
+)
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
 from synth.sound.modal_bank import (
     bank_coefficients,
     impact_excitation,
-    power_table,
     pulse_layout,
     samples_in_contact,
 )
@@ -36,10 +47,9 @@ from synth.store.audio import PHYSICAL_FULL_SCALE
 if TYPE_CHECKING:
     from synth.live.engine import Engine
 
-#: Longest contact a body takes, s (its in-contact samples are handed over in a slot).
+#: Longest contact a body takes, s; longest whose pulse a hit hands to the audio thread as
+#: is, s (a longer one is transformed here; with ``MAX_SLOT_GRID``, a slot's pulse size).
 MAX_CONTACT = 0.02
-#: Longest contact whose pulse a hit hands to the audio thread as is, s (a longer one is
-#: transformed on the calling thread); with ``MAX_SLOT_GRID``, sets a slot's pulse size.
 SLOT_CONTACT = 0.002
 MAX_SLOT_GRID = 4097
 #: Height (m) of the default microphone above the plate's centre (as a Scene's default).
@@ -55,34 +65,32 @@ WARM_UP_BALL_RADIUS = 0.005
 
 @dataclass(frozen=True)
 class _Prepared:
-    """A body's excitation at one impact point: the bank coefficients heard by its listener
-    now, the plate's own (the voices' modal states take these) and an accelerometer's
-    direct-term line (0 for a microphone)."""
+    """A body's excitation at one point: bank coefficients heard now, the plate's own (the
+    voices' modal states take these), an accelerometer's direct-term line (0: microphone)."""
 
     coefficients: object
     plate: object
     mass_line: float
 
 
+@dataclass(frozen=True)
+class _Impact:
+    """One solved contact to hand over: starting at ``onset`` s, at ``gain`` (linear), with
+    ``weight`` N left on the plate (a settled ball)."""
+
+    result: object
+    onset: float
+    gain: float
+    weight: float = 0.0
+
+
 class Body:
     """One plate in an :class:`Engine` (:meth:`Engine.add`): ``max_voices`` voice slots,
     each a modal state that one :class:`Voice` (a hit or a drop) excites."""
 
-    def __init__(
-        self,
-        engine: Engine,
-        plate: Plate,
-        listener,
-        gain: float,
-        model,
-        channel: int = -1,
-        ears: int = 1,
-        voices: int = 1,
-        pan: float = float("nan"),
-    ):
+    def __init__(self, engine: Engine, plate: Plate, listener, model, settings: BodySettings):
         self._engine = engine
-        self.max_voices = voices
-        self._channel = channel
+        self.max_voices = settings.voices
         self._min_interval = 0.0
         self._last_onsets: dict = {}  # onset (s) of the last hit at each point (1 mm grid)
         self._ears = [self]  # the bodies a hit plays on: this one, and the other ears
@@ -90,7 +98,6 @@ class Body:
         self.listener = listener
         self._model = model
         fs = engine.samplerate
-        poles = np.ascontiguousarray(model.poles)
         self._scale = 1.0 / PHYSICAL_FULL_SCALE[model.units]
         self._prepared: dict = {}
         self._plate_coefficients: dict = {}  # position -> (excitation, plate coefficients)
@@ -99,32 +106,24 @@ class Body:
         coefficients = self._prepare(plate.centre).coefficients
         grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
         self._ring = PendingRing(
-            engine.max_pending, poles.size, samples_in_contact(MAX_CONTACT, fs),
+            engine.max_pending, model.poles.size, samples_in_contact(MAX_CONTACT, fs),
             min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
-            engine.max_hits_per_block, voices=engine.max_pending + voices,
+            engine.max_hits_per_block, voices=engine.max_pending + settings.voices,
         )  # fmt: skip
-        self._state_arrays = kernel.body_state(poles.size, voices)
         self._warm_up()
         self._move_lock = threading.Lock()  # between the game's threads moving the listener
-        frames = engine._native.mix.shape[1]
-        arrays = st.body_arrays(
-            coefficients, power_table(poles, float(fs)), self._state_arrays, self._ring,
-            engine.floor, gain, channel, steal_frames=engine._steal_frames, mix_frames=frames,
-            ears=ears, gains=model.output, pan=pan,
-            rolls=rolling.body_rolls(engine.max_rolls, model, frames),
-        )  # fmt: skip
+        native_state = engine._native
+        rolls = rolling.body_rolls(engine.max_rolls, model, native_state.mix.shape[1])
+        self._index = native_state.add_body(coefficients, model.output, self._ring, settings, rolls)
+        self._record, self._arrays = native_state.records[self._index]
+        arrays = self._arrays
         self._rolls = {k: v for k, v in arrays.items() if k.startswith("roll")}
         self._roll_step = rolling.table_step(model)
         self._roll_lock, self._roll_holds = threading.Lock(), [None] * engine.max_rolls
         self.rolls_refused = 0  # Body.roll calls that found every rolling slot taken
-        self._heard = arrays["heard"]
-        self._heard_seq = arrays["heard_seq"]
-        self._counters = arrays["counters"]
-        self._slots = arrays["voice_slots"]
+        self._heard, self._heard_seq = arrays["heard"], arrays["heard_seq"]
+        self._counters, self._slots = arrays["counters"], arrays["voice_slots"]
         self._scalars = arrays["scalars"]
-        self._record = engine._native.add_body(arrays)
-        records = engine._native.records
-        self._index = next(i for i, r in enumerate(records) if r and r[0] is self._record)
         self._removed = False  # remove() called: hits and drops refused
         self._freed = False  # its arrays let go (see Engine._reap)
 
@@ -154,10 +153,8 @@ class Body:
 
     @property
     def pan(self) -> float | None:
-        """The body's place between the channels of an ``Engine(channels=2)``: -1 left, 0
-        centre, +1 right, or None (its mono signal at full level on both); a constant-power
-        law (:func:`synth.live.native.pan_gains`), ramped over the next block. Only for a
-        body of one listener."""
+        """A one-listener body's place in an ``Engine(channels=2)``: -1 left to +1 right, or
+        None (full level on both); constant power (:func:`synth.live.native.pan_gains`), ramped."""
         p = float(self._scalars[st.S_PAN])
         return None if np.isnan(p) else p
 
@@ -167,9 +164,8 @@ class Body:
 
     @property
     def min_interval(self) -> float:
-        """Shortest time between two hits at one point (to 1 mm), s in [0, 1] (0: no limit):
-        a sooner hit is refused (``stats.impacts_too_close``), so a jittering contact does
-        not drone."""
+        """Shortest time between two hits at one point (to 1 mm), s in [0, 1] (0: no limit): a
+        sooner one is refused (``stats.impacts_too_close``), so a jittering contact won't drone."""
         return self._min_interval
 
     @min_interval.setter
@@ -177,8 +173,7 @@ class Body:
         self._min_interval = closed("min_interval", value, 0.0, 1.0, "s")
 
     def _too_close(self, position, onset: float) -> bool:
-        """Whether a hit at ``position`` at ``onset`` s is within ``min_interval`` of the last
-        there (else it becomes the last)."""
+        """Whether a hit at ``position`` at ``onset`` s is within ``min_interval`` of the last."""
         if self._min_interval <= 0.0:
             return False
         key = (round(position[0], 3), round(position[1], 3))
@@ -200,13 +195,10 @@ class Body:
         """Bytes of the arrays the body holds for the audio thread."""
         if self._freed:
             return 0
-        records = self._engine._native.records
         return sum(
-            int(a.nbytes)
-            for ear in self._ears
-            for a in records[ear._index][1].values()
+            int(a.nbytes) for ear in self._ears for a in ear._arrays.values()
             if isinstance(a, np.ndarray)
-        )
+        )  # fmt: skip
 
     @property
     def units(self) -> str:
@@ -255,12 +247,10 @@ class Body:
         return _keep(self._prepared, position, _Prepared(heard, c, line))
 
     def move(self, listener) -> None:
-        """Hear the body through ``listener`` from now on (one per ear, of the units it was
-        added with; its cost checked as :meth:`Engine.add`'s): each mode's gain is ramped to
-        the new one over the next block. Gains are computed on the calling thread, for a
-        microphone at least ``NEAR_FIELD_HEIGHT`` high from the plate's fixed grids
-        (:mod:`synth.sound.radiation.fixed`, :meth:`Engine.prepare_moves`), else by
-        :func:`synth.sound.radiation.plate_gains`."""
+        """Hear the body through ``listener`` (one per ear, of the units it was added with; its
+        cost checked as :meth:`Engine.add`'s), each mode's gain ramped over the next block. The
+        gains are computed here, for a microphone at least ``NEAR_FIELD_HEIGHT`` high from the
+        plate's fixed grids (:mod:`synth.sound.radiation.fixed`), else exactly."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(
@@ -284,8 +274,8 @@ class Body:
         self.listener = listeners if len(listeners) > 1 else listeners[0]
 
     def _heard_by(self, listener, cut: int | None = None):
-        """This ear's modal model heard by ``listener``; ``cut``: the budget's
-        ``radiation_max_points`` (None: not cut, the fixed grids may serve)."""
+        """This ear's model heard by ``listener``; ``cut``: ``radiation_max_points`` (None: the
+        fixed grids may serve)."""
         if cut is not None:
             return self._engine._exact_model(self.plate, listener, cut)
         grid = None
@@ -294,8 +284,8 @@ class Body:
         return self._model.heard_by(listener, grid)
 
     def _hand_over_gains(self, listener, model) -> None:
-        """Write the new listener's gains for the mixing under a sequence lock (odd while
-        written; the mixing takes them whole at a block's start)."""
+        """Write the new gains under a sequence lock (odd while written; the mixing takes them
+        whole at a block's start)."""
         with self._move_lock:
             self._model = model
             self._prepared = {}
@@ -310,8 +300,7 @@ class Body:
             self.listener = listener
 
     def prepare(self, *positions) -> None:
-        """Evaluate the mode shapes at impact points (``(x, y)``, m) ahead of hits there (the
-        body keeps the last ``KEPT_POINTS``)."""
+        """Evaluate the mode shapes at points (``(x, y)``, m) ahead of hits there."""
         for position in positions:
             p = self.plate.centre if position is None else position
             self._prepare(self.plate.check_position(p, "position"))
@@ -324,19 +313,10 @@ class Body:
                 f"render it offline with synth.render"
             )
 
-    def _submit(
-        self,
-        result,
-        onset: float,
-        prepared: _Prepared,
-        gain: float,
-        weight=0.0,
-        slot=None,
-        voice: int = 0,
-    ) -> bool:
-        """Hand one contact of voice record ``voice`` over, starting at ``onset`` s, its
-        excitation computed here into ``slot`` (reserved by the caller, or here)."""
-        ring = self._ring
+    def _submit(self, impact: _Impact, prepared: _Prepared, voice: int, slot=None) -> bool:
+        """Hand ``impact`` of voice record ``voice`` over, its excitation computed here into
+        ``slot`` (reserved by the caller, or here)."""
+        ring, result = self._ring, impact.result
         self._check_length(result.separation_time)
         own = slot is None  # else the caller gives it back on failure
         if own:
@@ -345,16 +325,16 @@ class Body:
             return False
         try:
             # the plate's amplitudes for the voice's state; the response and peak heard
-            points = self._engine.pulse_points
-            impact_excitation(prepared.plate, result, onset, weight=weight, pulse_points=points,
-                              amplitudes=ring.amplitudes[slot])  # fmt: skip
-            ex = impact_excitation(prepared.coefficients, result, onset, weight=weight,
-                                   pulse_points=points, response=ring.response[slot])  # fmt: skip
+            options = dict(weight=impact.weight, pulse_points=self._engine.pulse_points)
+            impact_excitation(prepared.plate, result, impact.onset,
+                              amplitudes=ring.amplitudes[slot], **options)  # fmt: skip
+            ex = impact_excitation(prepared.coefficients, result, impact.onset,
+                                   response=ring.response[slot], **options)  # fmt: skip
         except BaseException:
             if own:
                 ring.release(slot)
             raise
-        g = self._scale * gain
+        g = self._scale * impact.gain
         amplitudes, response = ring.amplitudes[slot], ex.response  # views of the slot
         amplitudes *= g
         if prepared.mass_line:
@@ -363,21 +343,19 @@ class Body:
         ring.publish(slot, ex.inject, ex.first, response.size, ex.magnitude * g)
         return True
 
-    def _hand_over(
-        self, result, onset: float, prepared: _Prepared, gain: float, voice: int
-    ) -> bool:
-        """Hand one contact of voice record ``voice`` over as its force pulse, transformed by
+    def _hand_over(self, impact: _Impact, prepared: _Prepared, voice: int) -> bool:
+        """Hand ``impact`` of voice record ``voice`` over as its force pulse, transformed by
         the audio thread (:mod:`synth.live.kernel`); one too long for a slot, by :meth:`_submit`."""
-        ring = self._ring
+        ring, result = self._ring, impact.result
         self._check_length(result.separation_time)
         c = prepared.coefficients
         fs = c.samplerate
         lay = pulse_layout(
-            result.separation_time, onset, c.omega_max, fs, self._engine.pulse_points
+            result.separation_time, impact.onset, c.omega_max, fs, self._engine.pulse_points
         )
         n, M = lay.points, lay.samples
         if n + M > ring.pulse_samples:
-            return self._submit(result, onset, prepared, gain, voice=voice)
+            return self._submit(impact, prepared, voice)
         slot = ring.reserve(pulse=True, bounded=self._engine.running, voice=voice)
         if slot < 0:
             return False
@@ -386,12 +364,12 @@ class Body:
             ring.coefficients[slot, 0] = prepared.plate.coef_re  # the audio thread hears them
             ring.coefficients[slot, 1] = prepared.plate.coef_im
             ring.pulse[slot, PULSE_FIELDS] = (lay.step, lay.offset, 0.0, result.separation_time,
-                                              result.pulse_order, self._scale * gain,
+                                              result.pulse_order, self._scale * impact.gain,
                                               prepared.mass_line)  # fmt: skip
         except BaseException:
             ring.release(slot, pulse=True)
             raise
-        ring.publish_pulse(slot, lay.inject, lay.first, M, n)
+        ring.publish(slot, lay.inject, lay.first, M, points=n)
         return True
 
     def _solver(self, tr: Trigger) -> ContactSolver:
@@ -423,12 +401,11 @@ class Body:
         gravity: float = GRAVITY,
         priority: int = 0,
     ) -> Voice | None:
-        """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m; default
-        the centre), scaled by ``gain`` (> 0), from any thread: the contact is solved here (to
-        1e-6) and handed over without blocking. It starts at ``at`` (s, the engine's clock) or
-        one block plus the output latency from now. ``contact``: the law (default the ball's
-        own); ``gravity`` m/s^2 > 0; ``priority`` in [0, 255] (:class:`Voice`). Returns its
-        :class:`Voice`, or None if refused (counted in :attr:`Engine.stats`)."""
+        """One impact of ``ball`` at ``speed`` (m/s) at ``position`` ((x, y), m; default the
+        centre) at ``gain``, from any thread: solved here (to 1e-6), handed over without blocking,
+        starting at ``at`` (s, the engine's clock; default one block plus the latency from now).
+        ``contact``: the law (default the ball's); ``gravity`` m/s^2; ``priority`` in [0, 255].
+        Returns its :class:`Voice`, or None if refused (counted in :attr:`Engine.stats`)."""
         v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
@@ -442,8 +419,7 @@ class Body:
         return self._new_voice(p, lambda vid: self._hand_over_voice(result, tr, vid, p))
 
     def _new_voice(self, priority: int, hand_over) -> Voice | None:
-        """The Voice ``hand_over(vid)`` makes of a new id the engine's voice limit admits at
-        ``priority`` (None: refused)."""
+        """The Voice ``hand_over(vid)`` makes of a new id the voice limit admits, or None."""
         vid = self._engine._next_voice_id()
         limit = self._engine._voice_limit
         if not limit.admit(vid, priority):
@@ -456,15 +432,15 @@ class Body:
         return voice
 
     def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> Voice | None:
-        """Hand a solved hit over at every ear as voice ``vid``: its Voice, or None if an ear
-        refused it (then no ear plays it)."""
+        """Hand a solved hit over at every ear as voice ``vid``, or at none (None)."""
         records: list[int] = []
         for ear in self._ears:
             r = ear._ring.open_voice(vid, 1, priority)
             if r < 0:
                 break
             try:
-                accepted = ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain, r)
+                impact = _Impact(result, tr.onset, tr.gain)
+                accepted = ear._hand_over(impact, ear._prepare(tr.position), r)
             except BaseException:
                 ear._ring.close_voice(r, 1)
                 stop_records(self._ears, records, vid)
@@ -490,11 +466,10 @@ class Body:
         gravity: float = GRAVITY,
         priority: int = 0,
     ) -> Voice | None:
-        """Drop ``ball`` from ``height`` (m, in [1e-6, 1000] above the plate) at ``position``:
-        the whole bouncing sequence (:func:`synth.simulate_bounces`), the other arguments as
-        :meth:`hit`'s. Returns one :class:`Voice` (``voice.onsets``, s), or None when the
-        ring has too few free slots (``drops_refused``); more impacts than ``max_pending``
-        raise ParameterError."""
+        """Drop ``ball`` from ``height`` (m, in [1e-6, 1000]): the whole bouncing sequence
+        (:func:`synth.simulate_bounces`), the other arguments as :meth:`hit`'s. Returns one
+        :class:`Voice` (``voice.onsets``, s), or None when the ring lacks free slots
+        (``drops_refused``); more impacts than ``max_pending`` raise ParameterError."""
         h = check_height(height)
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
@@ -536,7 +511,7 @@ class Body:
                     k = n - len(slots)
                     imp = sequence[k]
                     weight = ball.mass * gravity if imp.result.settled else 0.0
-                    ear._submit(imp.result, onsets[k], prepared, g, weight, slot=slots[0], voice=r)
+                    ear._submit(_Impact(imp.result, onsets[k], g, weight), prepared, r, slots[0])
                     slots.pop(0)
         except BaseException:
             _release(reserved)
@@ -544,12 +519,10 @@ class Body:
         return Voice(self, vid, [r for _, r, _ in reserved], onsets, priority)
 
     def roll(self, ball: Ball, position, velocity, **options) -> rolling.RollingVoice | None:
-        """A ``ball`` rolling from ``position`` ((x, y), m) at ``velocity`` ((vx, vy), m/s)
-        over ``envelope`` (a :class:`synth.physics.surface.ContactEnvelope` of the ball's
-        radius), from ``start`` (m along it), at ``gain``, ``contact`` and ``rtol`` as
-        :func:`synth.physics.rolling.roll`; the game updates it every frame
-        (:class:`synth.live.rolling.RollingVoice`). None when all ``max_rolls`` slots roll
-        (``rolls_refused``); an engine of ``max_rolls=0`` raises ParameterError."""
+        """A ``ball`` rolling from ``position`` ((x, y), m) at ``velocity`` ((vx, vy), m/s), the
+        options (``envelope``, ``start``, ``gain``, ``contact``, ``rtol``) as
+        :func:`synth.physics.rolling.roll`'s; the game updates it every frame
+        (:class:`synth.live.rolling.RollingVoice`). None when all ``max_rolls`` slots roll."""
         return rolling.start_roll(self, ball, position, velocity, **options)
 
     @property
@@ -558,9 +531,9 @@ class Body:
         return self._removed
 
     def remove(self, fade: float | None = None) -> None:
-        """Take the body out of its engine (later hits raise SynthError): what it plays rings
-        out (``fade`` None) or fades out over ``fade`` s (in [0.001, 10]); once the mixing has
-        left it, its arrays are freed (:attr:`memory` 0). Its counts stay in the stats."""
+        """Take the body out of its engine (later hits raise SynthError): it rings out (``fade``
+        None) or fades over ``fade`` s (in [0.001, 10]); its arrays are then freed, its counts
+        stay in the stats."""
         frames = None if fade is None else stop_frames(self._engine, fade)
         if self._removed:
             return
@@ -577,15 +550,13 @@ class Body:
         """Let go of the arrays of every ear (the mixing no longer reads them)."""
         for ear in self._ears:
             ear._freed = True
-            ear._ring = ear._rolls = None
-            ear._state_arrays = None
+            ear._ring = ear._rolls = ear._arrays = None
             ear._prepared = {}
             ear._solvers = {}
             ear._grid = None
 
     def stop_all(self) -> None:
-        """Silence the body at the next block (at once without a stream): every voice ends,
-        pending impacts are dropped."""
+        """End every voice and drop pending impacts at the next block (at once without a stream)."""
         if self._engine.running:
             for ear in self._ears:
                 ear._counters[kernel.SILENCE] = 1  # the audio thread applies it
@@ -622,8 +593,7 @@ def check_listener(plate: Plate, listener, field: str) -> None:
 
 
 def check_pan(value, channels: int, listeners: int = 1) -> float:
-    """A body's ``pan`` checked against the engine's ``channels`` and the body's
-    ``listeners``, as the mixing's scalar (NaN for None)."""
+    """``pan`` checked for an engine of ``channels`` and a body of ``listeners`` (None: NaN)."""
     if value is None:
         return float("nan")
     if channels != 2:

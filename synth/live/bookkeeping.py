@@ -1,10 +1,11 @@
-"""The live engine's bookkeeping (the base of :class:`synth.live.Engine`): its state, clock,
-events, removed bodies and statistics, read from the arrays the audio thread writes, and the
+"""The live engine's bookkeeping (the base of :class:`synth.live.Engine`): its clock, events,
+removed bodies and statistics, read from the arrays the audio thread writes, and the
 watchdog that finds a lost device."""
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -14,21 +15,65 @@ from synth.live import kernel
 from synth.live import state as st
 from synth.live.atomics import fence
 from synth.live.body import Body
-from synth.live.hits import MAX_AHEAD
-from synth.live.stats import EngineStats
+from synth.live.voice import MAX_AHEAD
 
-#: s (or 10 blocks if longer) without a callback after which a stream's device is lost.
+#: s (or 10 blocks if longer) without a callback after which a stream's device is lost; how
+#: often the watchdog looks, s.
 DEVICE_LOST = 0.5
-#: How often the watchdog thread looks for a lost device while a stream runs, s.
 WATCH_PERIOD = 0.05
+#: :class:`EngineStats` fields read from ``ctl``, ``times`` and the bodies' counters.
+_FROM_CTL = dict(callbacks=st.CALLBACKS, output_underflows=st.UNDERFLOWS, clipped=st.CLIPPED,
+                 transforms_max=st.TRANSFORMS_MAX,
+                 transforms_deferred=st.TRANSFORMS_DEFERRED)  # fmt: skip
+_FROM_TIMES = dict(callback_max=st.COST_MAX, callback_last=st.COST_LAST,
+                   callback_gap_max=st.GAP_MAX, peak=st.PEAK, output_peak=st.OUT_PEAK)  # fmt: skip
+_FROM_COUNTERS = dict(impacts_played=kernel.PLAYED, impacts_late=kernel.LATE,
+                      impacts_dropped=kernel.DROPPED)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class EngineStats:
+    """Counters of an engine since it was made; docs/live.md ("Stats") states each. Callback
+    costs are fractions of a block, gaps in blocks, peaks in full scale 1, limiter figures in
+    dB since :meth:`Engine.reset_meter`, ``silent_for`` in s."""
+
+    callbacks: int
+    output_underflows: int
+    callback_mean: float
+    callback_max: float
+    callback_last: float
+    callback_gap_max: float
+    impacts_played: int
+    impacts_refused: int
+    drops_refused: int
+    impacts_too_close: int
+    impacts_late: int
+    transforms_max: int
+    transforms_deferred: int
+    impacts_pending: int
+    bodies_ringing: int
+    voices_playing: int
+    voices_stolen: int
+    voices_refused: int
+    impacts_dropped: int
+    events_lost: int
+    peak: float
+    output_peak: float
+    clipped: int
+    limiter_reduction_db: float
+    limiter_max_reduction_db: float
+    limiter_active: int
+    failed: str | None
+    silent_for: float
+    device_lost: bool
 
 
 class EngineBookkeeping:
     """What :class:`synth.live.Engine` reads of the state its ``__init__`` sets up."""
 
     def ended(self) -> list[int]:
-        """The ids of the voices that ended (at every ear) since the last call, oldest first,
-        read from the audio thread's lock-free ring (``stats.events_lost`` counts overflow)."""
+        """The ids of the voices that ended (at every ear) since the last call, oldest first
+        (``stats.events_lost`` counts a full ring's)."""
         self._reap()
         with self._events_lock:
             ev = self._native.events
@@ -59,8 +104,8 @@ class EngineBookkeeping:
         self._reap()
 
     def _reap(self) -> None:
-        """Move removed bodies on: a silent one is vacated from the directory, one the mixing
-        has left since is freed. Never waits (a host's audio callback may call it)."""
+        """Vacate silent removed bodies from the directory, free those the mixing has left since.
+        Never waits (a host's audio callback may call it)."""
         if not self._retiring or not self._reap_lock.acquire(blocking=False):
             return
         try:
@@ -115,8 +160,7 @@ class EngineBookkeeping:
 
     @property
     def latency(self) -> float:
-        """The stream's output latency, s (PortAudio's ``outputBufferDacTime - currentTime`` at
-        the last callback; 0 without a stream)."""
+        """The stream's output latency at the last callback, s (0 without a stream)."""
         return float(self._native.times[st.LEAD]) if self.running else 0.0
 
     def _check_open(self, what: str):
@@ -156,9 +200,8 @@ class EngineBookkeeping:
         return frame + (st.monotonic() - dac) * self.samplerate
 
     def _onset(self, at) -> float:
-        """A tick's start, s on the engine's clock: ``at`` (at most ``MAX_AHEAD`` s ahead), or
-        one block plus the output latency, the limiter's look-ahead and ``handover`` from
-        now (no stream: from the next frame)."""
+        """A tick's start, s on the engine's clock: ``at`` (at most ``MAX_AHEAD`` s ahead), or one
+        block plus the latency, look-ahead and ``handover`` from now (no stream: the next frame)."""
         self._check_open("play an impact")
         self._check_alive()
         if at is None:
@@ -185,35 +228,30 @@ class EngineBookkeeping:
         self._reap()
         # a body heard by several listeners counts its first's
         counts = self._retired_counters + sum(b._counters for b in self._bodies)
-        refused = self._retired_refused + sum(b._ring.refused for b in self._bodies)
-        limit = self._voice_limit
-        c, t = self._native.ctl, self._native.times
-        lim = self._native.limiter
-        n = int(c[st.CALLBACKS])
+        c, t, limit, lim = (
+            self._native.ctl,
+            self._native.times,
+            self._voice_limit,
+            self._native.limiter,
+        )
+        read = (
+            {name: int(c[i]) for name, i in _FROM_CTL.items()}
+            | {name: float(t[i]) for name, i in _FROM_TIMES.items()}
+            | {name: int(counts[i]) for name, i in _FROM_COUNTERS.items()}
+        )
+        n = read["callbacks"]
         return EngineStats(
-            callbacks=n,
-            output_underflows=int(c[st.UNDERFLOWS]),
+            **read,
             callback_mean=float(t[st.COST_SUM]) / n if n else 0.0,
-            callback_max=float(t[st.COST_MAX]),
-            callback_last=float(t[st.COST_LAST]),
-            callback_gap_max=float(t[st.GAP_MAX]),
-            impacts_played=int(counts[kernel.PLAYED]),
-            impacts_refused=refused,
+            impacts_refused=self._retired_refused + sum(b._ring.refused for b in self._bodies),
             drops_refused=self._drops_refused,
             impacts_too_close=self._too_close,
-            impacts_late=int(counts[kernel.LATE]),
-            transforms_max=int(c[st.TRANSFORMS_MAX]),
-            transforms_deferred=int(c[st.TRANSFORMS_DEFERRED]),
             impacts_pending=sum(b.pending for b in self._bodies),
             bodies_ringing=sum(b.ringing for b in self._bodies),
             voices_playing=sum(b.voices_playing for b in self._bodies),
             voices_stolen=int(counts[kernel.STOLEN]) + limit.stolen,
             voices_refused=limit.refused + int(counts[kernel.REFUSED]),
-            impacts_dropped=int(counts[kernel.DROPPED]),
             events_lost=int(self._native.events[kernel.E_LOST]),
-            peak=float(t[st.PEAK]),
-            output_peak=float(t[st.OUT_PEAK]),
-            clipped=int(c[st.CLIPPED]),
             limiter_reduction_db=lim.reduction_db if lim is not None else 0.0,
             limiter_max_reduction_db=lim.max_reduction_db if lim is not None else 0.0,
             limiter_active=lim.active_frames if lim is not None else 0,
@@ -224,8 +262,8 @@ class EngineBookkeeping:
 
 
 def watch_device(engine_ref, stream) -> None:
-    """A running stream's watchdog thread: reports a lost device once (``on_device_lost``,
-    ``stats.device_lost``); holds the engine weakly and ends with the stream."""
+    """A running stream's watchdog: reports a lost device once (``on_device_lost``); holds the
+    engine weakly and ends with the stream."""
     while True:
         engine = engine_ref()
         if engine is None or engine._stream is not stream:

@@ -6,6 +6,7 @@ Levels are the listener's physical signal at the calibration of ``normalize="phy
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import threading
 import time
@@ -19,30 +20,16 @@ from synth.errors import ParameterError, SynthError
 from synth.live import kernel, native
 from synth.live import state as st
 from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, check_listener, check_pan, ears
-from synth.live.bookkeeping import EngineBookkeeping, watch_device
-from synth.live.hits import MAX_GAIN, check_int, closed
-from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
-from synth.live.rolling import MAX_ROLLS
-from synth.live.stats import EngineStats
+from synth.live.bookkeeping import EngineBookkeeping, EngineStats, watch_device
+from synth.live.state import MAX_SECONDS, BodySettings, EngineOptions
 from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
-from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
+from synth.live.voice import MAX_GAIN, Voice, VoiceLimit, check_int, closed
 from synth.physics.scene import Microphone, Plate, Scene
-from synth.sound.modal_bank import PULSE_POINTS
 from synth.sound.radiation.fixed import GridTooLarge
 from synth.sound.render import listener_grid, modal_model
 
 __all__ = ["Body", "Engine", "EngineStats", "Voice", "ears"]
 
-#: The stream callbacks: compiled code without Python, or a Python fallback.
-CALLBACKS = ("native", "python")
-#: Longest output ``process`` mixes in one call and ``record_seconds`` keeps, s.
-MAX_SECONDS = 600.0
-#: Default room in the body directory the audio thread reads.
-MAX_BODIES = 256
-#: Latency settings PortAudio takes by name (else a positive number of seconds).
-LATENCIES = ("low", "high")
-#: Default bound on the hits a callback transforms (``max_hits_per_block``).
-HITS_PER_BLOCK = 16
 #: Voice-ended events the engine holds for :meth:`Engine.ended` (more are counted lost).
 EVENT_CAPACITY = 4096
 
@@ -58,128 +45,27 @@ def _compile_the_block(*, rolling: bool) -> int:
 
 
 class Engine(EngineBookkeeping):
-    """An always open output stream that mixes the ringing of every :class:`Body`;
-    docs/live.md states each setting at length. Keyword parameters:
+    """An always open output stream that mixes the ringing of every :class:`Body`, made with
+    the keywords of :class:`EngineOptions` (docs/live.md states each): a body of one listener
+    plays on every channel (panned by :attr:`Body.pan` with two), one listener per channel
+    (:func:`ears`) is heard on each its own; ``callback="native"`` runs no Python."""
 
-    - ``samplerate`` Hz in [8000, 384000]; ``blocksize`` frames per callback in [16, 8192]
-      (also :meth:`process`'s step); ``device`` a PortAudio output index or name (None: the
-      default); ``latency`` "low", "high" or s > 0; ``channels`` in [1, 64] (a body of one
-      listener plays on every channel, panned by :attr:`Body.pan` with two; one listener per
-      channel, :func:`ears`, is heard on each its own).
-    - ``floor_db`` < 0: each body's omission floor below its loudest impact; ``max_pending``
-      impacts a body holds, in [1, 4096]; ``max_hits_per_block`` in [1, max_pending] (default
-      ``min(HITS_PER_BLOCK, max_pending)``): hits a callback transforms, the others wait;
-      ``max_frequency`` Hz, at most Nyquist (default Nyquist); ``pulse_points`` >= 5 (as the
-      renderer's, :mod:`synth.sound.modal_bank`).
-    - ``fade`` s in [0.001, 1] (:meth:`stop`); ``handover`` s in [0, 0.1] added to a hit's
-      default start; ``record_seconds`` in [0, MAX_SECONDS] kept in :attr:`recording`.
-    - ``master_gain_db`` in [-120, 40] (settable, ramped over a block); ``clip``: soft-clip
-      the master bus above -1 dBFS; ``limiter``: a true-peak limiter before the clipper, at
-      ``ceiling_db`` in [-20, 0] dBFS, ``lookahead`` s in [``min_delay()`` frames, one block]
-      (None: ``LOOKAHEAD`` or one block if shorter).
-    - ``callback``: "native" (compiled, no Python) or "python" (holds the GIL each block).
-    - ``max_bodies`` in [1, 65536]; ``max_voices`` per body in [1, 256] (a new voice steals
-      the lowest priority's, of those the oldest, :class:`Voice`); ``max_rolls`` per body in
-      [0, 16] (0: the rolling block is never compiled); ``max_total_voices`` in [1, 65536]
-      or None (:class:`~synth.live.voice.VoiceLimit`).
-    - ``on_device_lost(reason)``: called once on the watchdog thread when a running stream's
-      device is lost (no callback for ``DEVICE_LOST`` s or 10 blocks)."""
-
-    def __init__(
-        self,
-        *,
-        samplerate: int,
-        blocksize: int = 256,
-        device=None,
-        latency="low",
-        channels: int = 1,
-        floor_db: float = -80.0,
-        max_pending: int = 128,
-        max_hits_per_block: int | None = None,
-        max_frequency: float | None = None,
-        pulse_points: int = PULSE_POINTS,
-        fade: float = 0.01,
-        handover: float = 0.002,
-        record_seconds: float = 0.0,
-        master_gain_db: float = 0.0,
-        clip: bool = True,
-        limiter: bool = False,
-        ceiling_db: float = -1.0,
-        lookahead: float | None = None,
-        callback: str = "native",
-        max_bodies: int = MAX_BODIES,
-        max_voices: int = MAX_VOICES,
-        max_total_voices: int | None = None,
-        on_device_lost=None,
-        max_rolls: int = MAX_ROLLS,
-    ):
-        self.samplerate = check_int("samplerate", samplerate, 8000, 384000, "Hz")
-        self.blocksize = check_int("blocksize", blocksize, 16, 8192, "frames")
-        if device is not None and (isinstance(device, bool) or not isinstance(device, (int, str))):
-            raise ParameterError(f"device={device!r} must be None, a device index or a device name")
-        self.device = device
-        if isinstance(latency, str):
-            try:
-                latency = float(latency)
-            except ValueError:
-                checks.choice("latency", latency, LATENCIES)
-        if not isinstance(latency, str):
-            latency = checks.in_range("latency", latency, 0.0, 10.0, "s", hi_open=False)
-        self.latency_setting = latency
-        self.channels = check_int("channels", channels, 1, 64, "channels")
-        db = checks.real("floor_db", floor_db, "dB", "< 0")
-        if not db < 0.0:
-            raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB)")
-        self.floor = 10.0 ** (db / 20.0)
-        self.max_pending = check_int("max_pending", max_pending, 1, 4096, "impacts")
-        if max_hits_per_block is None:
-            max_hits_per_block = min(HITS_PER_BLOCK, self.max_pending)
-        self.max_hits_per_block = check_int(
-            "max_hits_per_block", max_hits_per_block, 1, self.max_pending, "impacts"
-        )
-        self.pulse_points = check_int("pulse_points", pulse_points, 5, 100_000, "points")
-        self.max_frequency = None
-        if max_frequency is not None:
-            self.max_frequency = checks.positive("max_frequency", max_frequency, "Hz")
-            if self.max_frequency > 0.5 * self.samplerate:
-                raise ParameterError(
-                    f"max_frequency={max_frequency!r} must be <= the Nyquist "
-                    f"frequency {0.5 * self.samplerate:g} Hz"
-                )
-        fade_s = closed("fade", fade, 0.001, 1.0, "s")
-        self.handover = closed("handover", handover, 0.0, 0.1, "s")
-        rec = closed("record_seconds", record_seconds, 0.0, MAX_SECONDS, "s")
-        if not isinstance(clip, bool):
-            raise ParameterError(f"clip={clip!r} must be True or False")
-        limit = self._limiter_state(limiter, ceiling_db, lookahead)
-        self.callback = checks.choice("callback", callback, CALLBACKS)
-        if on_device_lost is not None and not callable(on_device_lost):
-            raise ParameterError(f"on_device_lost={on_device_lost!r} must be None or callable")
-        self._on_device_lost = on_device_lost
+    def __init__(self, **settings):
+        self.options = o = EngineOptions(**settings)
+        self.samplerate, self.blocksize, self.device, self.channels = (
+            o.samplerate, o.blocksize, o.device, o.channels)  # fmt: skip
+        self.latency_setting, self.callback, self.handover = o.latency, o.callback, o.handover
+        self.max_pending, self.max_hits_per_block = o.max_pending, o.max_hits_per_block
+        self.pulse_points, self.max_frequency = o.pulse_points, o.max_frequency
+        self.max_voices, self.max_rolls = o.max_voices, o.max_rolls
+        self.max_total_voices = o.max_total_voices
+        self._on_device_lost = o.on_device_lost
         self._device_lost: str | None = None  # why, once the watchdog found it lost
-        if self.callback == "native" and not st.native_available():
-            raise ParameterError(
-                "callback='native' needs a POSIX monotonic clock, which this platform lacks: "
-                "use callback='python'"
-            )
-        max_bodies = check_int("max_bodies", max_bodies, 1, 65536, "bodies")
-        self.max_voices = check_int("max_voices", max_voices, 1, 256, "voices")
-        self.max_rolls = check_int("max_rolls", max_rolls, 0, 16, "rolling voices")
-        if max_total_voices is not None:
-            max_total_voices = check_int("max_total_voices", max_total_voices, 1, 65536, "voices")
-        self.max_total_voices = max_total_voices
-        self._voice_limit = VoiceLimit(max_total_voices)
-        self._fade = fade_s
-        self._steal_frames = max(1, int(round(STEAL_FADE * self.samplerate)))
+        self._voice_limit = VoiceLimit(o.max_total_voices)
+        self._fade = o.fade
         roller = _compile_the_block(rolling=self.max_rolls > 0)
-        self._native = st.EngineState(
-            samplerate=self.samplerate, channels=self.channels, max_bodies=max_bodies,
-            mix_frames=max(self.blocksize, 4096), record_frames=int(round(rec * self.samplerate)),
-            fade_frames=max(1, int(round(fade_s * self.samplerate))), clip=clip,
-            transforms_per_block=self.max_hits_per_block, events=EVENT_CAPACITY, limit=limit,
-            roller=roller,
-        )  # fmt: skip
-        self.master_gain_db = master_gain_db
+        self._native = st.EngineState(o, roller, events=EVENT_CAPACITY)
+        self.master_gain_db = o.master_gain_db
         self._bodies: tuple[Body, ...] = ()
         self._stream = None
         self._closer = None
@@ -200,31 +86,6 @@ class Engine(EngineBookkeeping):
         self._grids_lock = threading.Lock()  # between the game's threads moving listeners
         self._too_large_for_grids: set = set()  # plates whose grids exceed their budget
         self._partial_events: dict = {}  # id -> ears that ended it, of a body of several
-
-    def _limiter_state(self, limit, ceiling_db, lookahead) -> LimiterState | None:
-        if not isinstance(limit, bool):
-            raise ParameterError(f"limiter={limit!r} must be True or False")
-        ceiling = closed("ceiling_db", ceiling_db, -20.0, 0.0, "dBFS")
-        if lookahead is None:
-            frames = min(int(round(LOOKAHEAD * self.samplerate)), self.blocksize)
-        else:
-            frames = int(round(checks.positive("lookahead", lookahead, "s") * self.samplerate))
-        lo, hi = min_delay(), self.blocksize
-        if limit and not lo <= frames <= hi:
-            raise ParameterError(
-                f"lookahead={lookahead!r} s is {frames} frames at samplerate="
-                f"{self.samplerate} Hz with blocksize={self.blocksize}; it must be in "
-                f"[{lo}, {hi}] frames (at least the interpolator's reach and a "
-                f"{MIN_ATTACK}-frame attack, at most one block)"
-            )
-        if not limit:
-            return None
-        return LimiterState(
-            channels=self.channels,
-            delay=frames,
-            ceiling=10.0 ** (ceiling / 20.0),
-            samplerate=self.samplerate,
-        )
 
     def _budget(self, plate, listener, voices: int) -> int | None:
         """The radiation points a body's cost allows (:func:`synth.cost.check_body`)."""
@@ -253,31 +114,7 @@ class Engine(EngineBookkeeping):
         voices = check_int("max_voices", voices, 1, 256, "voices")
         several = isinstance(listener, (tuple, list))
         panned = check_pan(pan, self.channels, len(listener) if several else 1)
-        if several:
-            listeners = tuple(listener)
-            if self.channels < 2 or len(listeners) != self.channels:
-                raise ParameterError(
-                    f"listener: a sequence of {len(listeners)} listeners needs an Engine with "
-                    f"as many channels (one listener per channel, at least 2); "
-                    f"channels={self.channels}"
-                )
-            if not isinstance(plate, Plate):
-                raise ParameterError(f"plate={plate!r} must be a Plate when listeners are given")
-        else:
-            if isinstance(plate, Scene):
-                if listener is not None:
-                    raise ParameterError(
-                        "listener must be None when adding a Scene (the scene's listener is used)"
-                    )
-                plate, listener = plate.plate, plate.listener
-            if not isinstance(plate, Plate):
-                raise ParameterError(f"plate={plate!r} must be a Plate or a Scene")
-            if listener is None:
-                cx, cy = plate.centre
-                listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))
-            listeners = (listener,)
-        for i, li in enumerate(listeners):
-            check_listener(plate, li, f"listener[{i}]" if several else "listener")
+        plate, listeners = self._listeners(plate, listener)
         g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
         self._check_open("add a body")
         self._reap()
@@ -290,13 +127,43 @@ class Engine(EngineBookkeeping):
         ears_ = []
         for c, li in enumerate(listeners):
             model = self._exact_model(plate, li, self._budget(plate, li, voices))
-            channel = c if several else -1
-            ears_.append(Body(self, plate, li, g, model, channel, len(listeners), voices, panned))
+            settings = BodySettings(gain=g, voices=voices, pan=panned,
+                                    channel=c if several else -1, ears=len(listeners))  # fmt: skip
+            ears_.append(Body(self, plate, li, model, settings))
         body = ears_[0]
-        body.listener = listeners if several else listener
+        body.listener = listeners if several else listeners[0]
         body._ears = ears_
         self._bodies = self._bodies + (body,)
         return body
+
+    def _listeners(self, plate, listener) -> tuple[Plate, tuple]:
+        """The plate and its listeners (one per channel, or one) of :meth:`add`, checked."""
+        if isinstance(listener, (tuple, list)):
+            listeners = tuple(listener)
+            if self.channels < 2 or len(listeners) != self.channels:
+                raise ParameterError(
+                    f"listener: a sequence of {len(listeners)} listeners needs an Engine with "
+                    f"as many channels (one listener per channel, at least 2); "
+                    f"channels={self.channels}"
+                )
+            if not isinstance(plate, Plate):
+                raise ParameterError(f"plate={plate!r} must be a Plate when listeners are given")
+            for i, li in enumerate(listeners):
+                check_listener(plate, li, f"listener[{i}]")
+            return plate, listeners
+        if isinstance(plate, Scene):
+            if listener is not None:
+                raise ParameterError(
+                    "listener must be None when adding a Scene (the scene's listener is used)"
+                )
+            plate, listener = plate.plate, plate.listener
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate or a Scene")
+        if listener is None:
+            cx, cy = plate.centre
+            listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))
+        check_listener(plate, listener, "listener")
+        return plate, (listener,)
 
     @property
     def master_gain_db(self) -> float:
@@ -309,8 +176,8 @@ class Engine(EngineBookkeeping):
         self._native.times[st.MASTER_GAIN] = 10.0 ** (db / 20.0)
 
     def move_listener(self, position, facing=(1.0, 0.0)) -> None:
-        """Move every body's listener to ``position`` ((x, y, z), m, z > 0) from the next block
-        (:meth:`Body.move`); two ears face ``facing`` ((x, y)), more move by one displacement."""
+        """Move every body's listener to ``position`` ((x, y, z), m, z > 0) (:meth:`Body.move`);
+        two ears face ``facing`` ((x, y)), more move by one displacement."""
         position = checks.point("position", position, 3)
         checks.point("facing", facing, 2, "dimensionless")
         if not position[2] > 0.0:
@@ -327,8 +194,8 @@ class Engine(EngineBookkeeping):
                 body.move(_shifted(body.listener, position))
 
     def prepare_moves(self) -> None:
-        """Build now (at a game's load time) the fixed radiation grids each microphone-heard
-        plate's moves take their gains from; else its first move builds them."""
+        """Build now (at load time) the fixed radiation grids microphone-heard plates' moves take
+        their gains from; else a plate's first move builds them."""
         for body in self.bodies:
             if body.removed or body.units != "Pa":
                 continue
@@ -337,7 +204,7 @@ class Engine(EngineBookkeeping):
 
     def _listener_grid(self, model):
         """The fixed radiation grids of ``model``'s plate, shared by its bodies; None beyond
-        :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES` (its moves take the exact rule)."""
+        their memory budget (its moves take the exact rule)."""
         plate = model.modes.plate
         with self._grids_lock:
             grid = self._grids.get(plate)
@@ -363,8 +230,7 @@ class Engine(EngineBookkeeping):
             self._native.limiter.reset_meter()
 
     def pause(self) -> None:
-        """Fade out over ``fade`` s, then hold the clock and every voice (the stream writes
-        silence) until :meth:`resume`."""
+        """Fade out over ``fade`` s, then hold the clock and every voice until :meth:`resume`."""
         self._native.ctl[st.PAUSE] = 1
 
     def resume(self) -> None:
@@ -372,15 +238,13 @@ class Engine(EngineBookkeeping):
         self._native.ctl[st.PAUSE] = 0
 
     def process(self, frames: int) -> np.ndarray:
-        """Mix the next ``frames`` frames without a device, in blocks of ``blocksize``: float32
-        (frames, channels), the samples the stream's callback would emit."""
+        """The next ``frames`` frames mixed without a device, in blocks of ``blocksize``: float32
+        (frames, channels), as the stream's callback would emit them."""
         out = self._new_block(frames)
         if self.running:
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
-        for a in range(
-            0, out.shape[0], self.blocksize
-        ):  # the callback's blocks, removed bodies reaped
+        for a in range(0, out.shape[0], self.blocksize):  # the callback's blocks
             self.mix_into(out[a : a + self.blocksize])
         return out
 
@@ -407,8 +271,8 @@ class Engine(EngineBookkeeping):
         return np.empty((n, self.channels), dtype=np.float32)
 
     def start(self) -> Engine:
-        """Open the output stream and mix from the engine's clock where it stands; SynthError
-        without PortAudio, sounddevice or a device that takes the engine's rate."""
+        """Open the output stream, mixing from the engine's clock; SynthError without PortAudio,
+        sounddevice or a device that takes the engine's rate."""
         if self.running:
             raise SynthError("the engine is already running")
         self._check_open("start")
@@ -452,8 +316,8 @@ class Engine(EngineBookkeeping):
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Fade out, then close the stream within ``timeout`` s (>= 0) plus the fade, dropping
-        every impact and voice; a server that does not answer marks the engine :attr:`failed`."""
+        """Fade out, then close the stream within ``timeout`` s plus the fade, dropping every
+        impact and voice; a server that does not answer marks the engine :attr:`failed`."""
         t = checks.nonnegative("timeout", timeout, "s")
         if not self.running:
             return
@@ -492,8 +356,7 @@ class Engine(EngineBookkeeping):
 
 
 def _shifted(listeners, position) -> tuple:
-    """``listeners`` (Microphones only) moved by one displacement, their centroid to
-    ``position`` ((x, y, z), m)."""
+    """``listeners`` (Microphones) moved by one displacement, their centroid to ``position``."""
     for i, li in enumerate(listeners):
         if not isinstance(li, Microphone):
             raise ParameterError(
@@ -507,3 +370,9 @@ def _shifted(listeners, position) -> tuple:
                 f"listener[{i}] would be at z={p[2]!r} m: an ear must stay above the plate"
             )
     return tuple(Microphone(tuple(float(v) for v in p)) for p in moved)
+
+
+Engine.__init__.__signature__ = inspect.Signature(
+    [inspect.Parameter("self", inspect.Parameter.POSITIONAL_ONLY)]
+    + checks.keyword_parameters(EngineOptions)
+)

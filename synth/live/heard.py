@@ -1,9 +1,7 @@
-"""The listener's gains at a voice's output: voice slots hold the plate's modal states, heard
-through each mode's complex gain (``heard``: at the block's start and its target at the end,
-ramped after :meth:`synth.live.Body.move`). :func:`ring_heard` and :func:`inject_heard` are the
-bank's :func:`~synth.sound.modal_bank.ring_modes` and
-:func:`~synth.sound.modal_bank.inject_amplitudes` with that gain at the output and the
-omission test on the heard level; a mode no longer heard parks its plate state (:func:`park`).
+"""The listener's gains at a voice's output: slots hold the plate's modal states, heard
+through each mode's complex gain (ramped after :meth:`synth.live.Body.move`), as the bank's
+:func:`~synth.sound.modal_bank.ring_modes` and ``inject_amplitudes`` with the omission test
+on the heard level; a mode no longer heard parks its plate state (:func:`park`).
 """
 
 from __future__ import annotations
@@ -13,18 +11,15 @@ import numpy as np
 from synth.compilation import compiled
 from synth.sound.modal_bank.bank_kernels import SUB, falls_silent
 
-#: Rows of a body's ``heard`` (float64, (N_HEARD_ROWS, K)): each mode's complex gain at the
-#: block's start, its target at the block's end, and the gains a producer hands over.
+#: Rows of ``heard`` (float64, (N_HEARD_ROWS, K)): gains at the block's start, target, handed over.
 H0R, H0I, H1R, H1I, HPR, HPI, N_HEARD_ROWS = range(7)
-#: ``heard_seq`` (int64): the producer's sequence number of the handed-over gains (odd
-#: while it writes them), and the last one the mixing took.
+#: ``heard_seq``: the producer's sequence number (odd while written), the last one taken.
 SEQ_PUT, SEQ_TAKEN = range(2)
 
 
 @compiled(nogil=True, inline="always")
 def heard_power(heard, k):
-    """The largest power gain ``|G|^2`` of mode ``k`` over the block, for the omission tests
-    (a mode is never left out while the ramp makes it louder)."""
+    """Mode ``k``'s largest ``|G|^2`` over the block (never left out while ramped louder)."""
     a = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
     b = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
     return max(a, b)
@@ -32,8 +27,8 @@ def heard_power(heard, k):
 
 @compiled(nogil=True, inline="always")
 def park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
-    """Keep mode ``k``'s plate state ``cr + i ci`` at sample ``at`` when it stops being heard
-    (added to what it parked before, decayed to ``at``), for a later listener."""
+    """Park mode ``k``'s plate state ``cr + i ci`` at sample ``at`` (added to what it parked,
+    decayed) for a later listener."""
     pr = park_r[k]
     pi = park_i[k]
     if pr != 0.0 or pi != 0.0:
@@ -47,11 +42,9 @@ def park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
 @compiled(nogil=True)
 def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
                poles, fs, park_r, park_i, park_at, heard, t0, n):  # fmt: skip
-    """:func:`~synth.sound.modal_bank.ring_modes` of a slot's plate state heard through each
-    mode's gain ``G_k``, ramped from the block's start ``t0`` over ``n`` samples:
-    ``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``. A still gain is folded into the state
-    once per ``SUB`` samples (the bank's inner loop); a mode whose heard level and debt fit
-    its omission share stops and parks (:func:`park`)."""
+    """``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``, the gain ramped from ``t0`` over
+    ``n`` samples, folded into the state once per ``SUB`` samples (the bank's inner loop); a
+    mode that fits its omission share stops and parks."""
     K = zr.shape[0]
     inv_n = 1.0 / n
     for k in range(K):

@@ -1,14 +1,9 @@
-"""The audio thread's work: one compiled call per body per block, one to write the output.
-
-A body has fixed voice slots, each a modal state of the plate as the offline bank's
-(:mod:`synth.sound.modal_bank`). A voice takes a free slot when its first impact joins, or
-steals the one of lowest priority, of those the oldest (:func:`_victim`; refused if lower
-than all), and frees it when every mode is below its share of the omission floor or its
-stop fade ends, then posts a voice-ended event. :func:`mix_body` turns pending pulses into
-mode amplitudes (:func:`~synth.sound.modal_bank.transform_pulse`) and advances each slot
-over the block through the listener's gains (:mod:`synth.live.heard`), so a voice is the
-offline render of the same impacts up to rounding, times its gain and fades. Compiled
-``nogil=True``: trigger threads keep running while a block is mixed.
+"""The audio thread's work on a body, one compiled call a block (``nogil``: trigger threads
+run meanwhile). Voice slots are modal states as the offline bank's
+(:mod:`synth.sound.modal_bank`), heard through the listener's gains (:mod:`synth.live.heard`),
+so a voice is the offline render of its impacts up to rounding, times its gain and fades. A
+voice takes a free slot or steals the lowest priority's, of those the oldest (:func:`_victim`),
+and ends when every mode is below its omission share or its stop fade ends.
 """
 
 from __future__ import annotations
@@ -25,50 +20,33 @@ from synth.sound.modal_bank import transform_pulse
 
 #: Slot states of the pending ring (:mod:`synth.live.queue`; WRITING = 2 is the producers').
 FREE, READY, PULSE = 0, 1, 3
-
-#: A PULSE slot's scalars (columns of the ring's ``pulse``): the grid step (s), the first
-#: in-contact sample's time from first touch (s), the weight left on the plate (N), the
-#: contact time (s), the rule's error order, the hit's gain and the accelerometer's
-#: direct-term line (listener units per N; 0 for a microphone).
+#: A PULSE slot's scalars: grid step (s), first in-contact sample from first touch (s),
+#: weight left on the plate (N), contact time (s), rule's order, gain, direct-term line.
 STEP, OFFSET, WEIGHT, CONTACT_TIME, ORDER, GAIN, MASS_LINE, N_PULSE_FIELDS = range(8)
-
-#: A body's counters (int64): impacts played, played late (at their block's start), blocks
-#: it rang, 1 while awake (ringing, pending or a steal fade), 1 while a ``stop_all`` waits,
-#: the most pulses a block transformed, voices stolen, impacts dropped (their voice stopped
-#: or stolen first), the sample after the last steal fade; two settings: its ears (in its
-#: voice-ended events) and the steal fade (samples); then voices refused a slot.
+#: A body's counters (int64; EARS and STEAL_FRAMES, samples, are settings).
 (
     PLAYED, LATE, BUSY_BLOCKS, AWAKE, SILENCE, MOST_PULSES, STOLEN, DROPPED, TAIL_END, EARS,
     STEAL_FRAMES, REFUSED, N_COUNTERS,
 ) = range(13)  # fmt: skip
 
-#: A voice record (int64 columns of a body's ``voices``, one per handle): its id, state
-#: (V_FREE, V_LIVE; WRITING = 2 the producers'), impacts handed over, those played or
-#: dropped (the audio thread's), the stop fade asked (samples, -1 none), 1 once stolen or
-#: refused, the voice slot it rings (-1 none) and its priority (:func:`_victim`).
+#: A voice record (int64 columns of ``voices``): id, state, impacts handed over, those
+#: played or dropped, stop fade asked (samples, -1 none), 1 once stolen or refused, its slot
+#: (-1 none), priority.
 V_ID, V_STATE, V_PUT, V_PLAYED, V_STOP, V_DEAD, V_SLOT, V_PRIORITY, N_VOICE_FIELDS = range(9)
 V_FREE, V_LIVE = 0, 1
 
-#: A voice slot (int64 columns of a body's ``slots``): the voice record it rings (-1 free),
-#: the sample it was taken at, its stop fade's start (-1 none) and length, the sample its
-#: state stands at in the block, and its steal fade's length (0 unless stolen; from SL_POS).
+#: A voice slot (int64 columns of ``slots``): its voice record (-1 free), the sample it was
+#: taken at, stop fade's start (-1 none) and length, where its state stands, steal fade length.
 SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL, N_SLOT_FIELDS = range(7)
 #: A voice slot's gain (``slot_gain`` columns): at the block's start, and its target.
 G_NOW, G_NEXT = range(2)
-
-#: A sample no impact reaches (beyond every pending injection); the kernels pass it, as the
-#: slot states, as an int64: a literal argument would compile a callee once more.
+#: A sample no impact reaches; passed as an int64 (a literal would compile a callee again).
 NEVER = 1 << 62
-
 #: A voice-ended event (int64, in the engine's event ring): ``id * EVENT_EARS + ears``.
 EVENT_EARS = 128
-
-#: Where the master bus' soft clipper leaves the identity: -1 dBFS (a fraction of full
-#: scale); above it a tanh knee approaches full scale (:func:`synth.live.native.soft_clip`).
+#: Where the master bus' soft clipper leaves the identity: -1 dBFS (:func:`native.soft_clip`).
 KNEE = 10.0 ** (-1.0 / 20.0)
-
-#: The engine's event ring (int64): events written (the audio thread's), read (the
-#: reader's), lost to a full ring, then the ring.
+#: The engine's event ring (int64): events written, read, lost to a full ring, then the ring.
 E_WRITTEN, E_READ, E_LOST, N_EVENT_HEADER = range(4)
 
 
@@ -83,9 +61,8 @@ def _voice_ended(records, r, events, ears):
 
 @compiled(nogil=True, inline="always")
 def post_event(events, value):
-    """Post ``value`` (``id * EVENT_EARS + ears``) in the engine's event ring, a lock-free
-    ring of one writer (the mixing thread) and one reader (:meth:`synth.live.Engine.ended`),
-    or count it lost if the ring is full."""
+    """Post ``value`` in the event ring (lock-free: one writer, the mixing, one reader,
+    :meth:`synth.live.Engine.ended`), or count it lost if the ring is full."""
     cap = events.shape[0] - N_EVENT_HEADER
     written = events[E_WRITTEN]
     if written - events[E_READ] >= cap:
@@ -104,11 +81,6 @@ def _settle(records, r, events, ears):
 
 
 @compiled(nogil=True, inline="always")
-def _stopped(records, r):
-    return records[r, V_STOP] >= 0 or records[r, V_DEAD] != 0
-
-
-@compiled(nogil=True, inline="always")
 def _drop(state, i, records, r, counters):
     """Drop pending impact ``i`` of voice ``r`` (stopped or stolen before it played)."""
     fence()  # done reading the slot before a producer may take it
@@ -118,13 +90,22 @@ def _drop(state, i, records, r, counters):
 
 
 @compiled(nogil=True, inline="always")
-def _refuse(state, i, records, r, counters, events):
-    """Refuse voice ``r`` (outranked by every ringing slot) at its pending impact ``i``: it
-    ends, its impacts dropped."""
-    records[r, V_DEAD] = 1
-    counters[REFUSED] += 1
+def _drop_stopped(state, i, records, r, counters, events):
+    """Drop pending impact ``i`` if its voice ``r`` was stopped, stolen or refused; whether
+    it was."""
+    if records[r, V_STOP] < 0 and records[r, V_DEAD] == 0:
+        return False
     _drop(state, i, records, r, counters)
     _settle(records, r, events, counters[EARS])
+    return True
+
+
+@compiled(nogil=True, inline="always")
+def _refuse(state, i, records, r, counters, events):
+    """Refuse voice ``r`` (outranked by every ringing slot) at its pending impact ``i``."""
+    records[r, V_DEAD] = 1
+    counters[REFUSED] += 1
+    _drop_stopped(state, i, records, r, counters, events)
 
 
 @compiled(nogil=True)
@@ -138,9 +119,8 @@ def _outranked(records, slots, r):
 
 @compiled(nogil=True)
 def _contact_samples(out, t0, n, ring, voice_form, counters, events):
-    """Drop the pending impacts of stopped or stolen voices; add the others' in-contact
-    samples in ``[t0, t0 + n)`` at their voice's gain, refusing a voice that would be
-    refused a slot (:func:`_outranked`) before it sounds."""
+    """Add the in-contact samples in ``[t0, t0 + n)`` of pending impacts at their voice's
+    gain; drop those of stopped voices, refuse an outranked voice before it sounds."""
     state, first, length, response, voice = ring[0], ring[2], ring[3], ring[5], ring[7]
     records, vgain = voice_form[0], voice_form[1]
     end = t0 + n
@@ -149,9 +129,7 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
             continue
         fence()  # the slot's data after its state word
         r = voice[i]
-        if _stopped(records, r):
-            _drop(state, i, records, r, counters)
-            _settle(records, r, events, counters[EARS])
+        if _drop_stopped(state, i, records, r, counters, events):
             continue
         g = vgain[r]
         lo = max(first[i], t0)
@@ -179,11 +157,9 @@ def _earliest(state, inject, form, end):
 
 @compiled(nogil=True)
 def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
-    """Turn at most ``limit`` PULSE slots (-1: all), the earliest first, into the READY form as
-    :func:`synth.sound.modal_bank.impact_excitation` would: the pulse's transform with the
-    plate's coefficients (the plate amplitudes) and with the listener's gains now (response
-    and heard peak), times the hit's gain, plus an accelerometer's direct term. Returns the
-    number transformed."""
+    """Turn at most ``limit`` PULSE slots (-1: all), earliest first, into READY ones as
+    :func:`synth.sound.modal_bank.impact_excitation` would (plate amplitudes; response and
+    peak heard now). Returns the number transformed."""
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
     pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
     coefficients, samples, points, pulse = pulse_form
@@ -232,8 +208,7 @@ def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
 
 @compiled(nogil=True)
 def _revive(t0, bank, modal, slots):
-    """After the listener moved: every parked mode the new gains hear louder, above its
-    omission share, rings again from its parked state decayed to ``t0``, its debt cleared."""
+    """After a move: a parked mode heard louder, above its share, rings again from ``t0``."""
     poles, fs, heard = bank[1], bank[2], bank[3]
     zr, zi, active, debt, thr2 = modal[0], modal[1], modal[2], modal[3], modal[6]
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
@@ -263,42 +238,39 @@ def _revive(t0, bank, modal, slots):
             active[s, k] = True
 
 
+@compiled(nogil=True, inline="always")
+def _copy_gains(heard, to, source):
+    """Copy the complex gains of rows ``source`` (re, im) to rows ``to`` of ``heard``."""
+    for k in range(heard.shape[1]):
+        heard[to, k] = heard[source, k]
+        heard[to + 1, k] = heard[source + 1, k]
+
+
 @compiled(nogil=True)
 def _take_gains(t0, bank, modal, slots, asleep):
-    """At a block's start the last target becomes the start gains; gains handed over since
-    (copied whole under the producer's sequence number) become the target (at once for a
-    body ``asleep``), and parked modes they hear better ring again."""
+    """At a block's start the last target gains become the start; gains handed over (whole,
+    under the producer's sequence number) the target (at once for a body ``asleep``)."""
     heard, seq = bank[3], bank[4]
-    K = heard.shape[1]
-    for k in range(K):
-        heard[hd.H0R, k] = heard[hd.H1R, k]
-        heard[hd.H0I, k] = heard[hd.H1I, k]
+    _copy_gains(heard, hd.H0R, hd.H1R)
     put = seq[hd.SEQ_PUT]
     if put == seq[hd.SEQ_TAKEN] or put % 2 == 1:
         return
     fence()  # the gains after their sequence number
-    for k in range(K):
-        heard[hd.H1R, k] = heard[hd.HPR, k]
-        heard[hd.H1I, k] = heard[hd.HPI, k]
+    _copy_gains(heard, hd.H1R, hd.HPR)
     fence()
     if seq[hd.SEQ_PUT] != put:  # rewritten meanwhile: keep the old target, retry next block
-        for k in range(K):
-            heard[hd.H1R, k] = heard[hd.H0R, k]
-            heard[hd.H1I, k] = heard[hd.H0I, k]
+        _copy_gains(heard, hd.H1R, hd.H0R)
         return
     seq[hd.SEQ_TAKEN] = put
     if asleep:
-        for k in range(K):
-            heard[hd.H0R, k] = heard[hd.H1R, k]
-            heard[hd.H0I, k] = heard[hd.H1I, k]
+        _copy_gains(heard, hd.H0R, hd.H1R)
     else:
         _revive(t0, bank, modal, slots)
 
 
 @compiled(nogil=True)
 def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
-    """Ring voice slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset : b - offset]``
-    (cleared first) through the listener's ramped gains (:func:`~synth.live.heard.ring_heard`)."""
+    """Ring slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset :]`` (cleared first)."""
     table, poles, fs, heard = bank[0], bank[1], bank[2], bank[3]
     zr, zi, active, debt, debt_at, thresholds, thr2 = modal[:7]
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
@@ -323,8 +295,8 @@ def _fade(x, at, frames):
 
 @compiled(nogil=True)
 def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
-    """Add a slot's samples ``a .. b - 1`` (``vs[a - offset :]``) into ``out`` (samples from
-    ``t0``; later ones into the ring buffer ``tail``) at its ramped gain and fades."""
+    """Add a slot's samples ``a .. b - 1`` into ``out`` (from ``t0``; later ones into the ring
+    buffer ``tail``) at its ramped gain and fades."""
     g0 = gains[G_NOW]
     g1 = gains[G_NEXT]
     fade_at = slot[SL_FADE_AT]
@@ -362,9 +334,8 @@ def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
 
 @compiled(nogil=True, inline="always")
 def _victim(records, slots, r):
-    """The slot a new voice ``r`` may steal (all taken): its voice's priority the lowest, of
-    those the oldest (then the lowest id); -1 if that outranks ``r``. The oldest, not the
-    quietest: a voice's age is the same at every ear of a body, its level is not."""
+    """The slot a new voice ``r`` may steal: lowest priority, then oldest, then lowest id; -1
+    if that outranks ``r``. The oldest, not the quietest: age is the same at every ear."""
     s = numba.int64(0)  # not a literal: its callees are compiled for int64 once
     for j in range(1, slots.shape[0]):
         pj = records[slots[j, SL_OWNER], V_PRIORITY]
@@ -387,8 +358,7 @@ def _victim(records, slots, r):
 
 @compiled(nogil=True, inline="always")
 def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
-    """Free voice slot ``s`` at sample ``at``: its voice rings on through a ``STEAL_FRAMES``
-    fade rendered now into ``out`` and ``tail`` (mixed in by the next blocks), and ends."""
+    """Free slot ``s`` at sample ``at``: its voice ends through a ``STEAL_FRAMES`` fade."""
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
     F = counters[STEAL_FRAMES]
@@ -406,8 +376,7 @@ def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
 
 @compiled(nogil=True, inline="always")
 def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events):
-    """A silent voice slot for voice ``r`` joining at sample ``at``: a free one, else one
-    stolen; -1 when every slot outranks ``r``."""
+    """A silent slot for voice ``r`` at sample ``at``: free, else stolen; -1 if outranked."""
     records, vgain, slots, slot_gain = voice_form[:4]
     s = -1
     for j in range(slots.shape[0]):
@@ -437,9 +406,8 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
 
 @compiled(nogil=True, inline="always")
 def _inject(s, i, at, ring, bank, modal, floor):
-    """Add pending impact ``i``'s plate amplitudes to voice slot ``s`` at sample ``at``; the
-    voice's peak heard sum of ``|amplitudes|`` sets each mode's omission threshold,
-    ``floor * peak / K``, as the offline bank's."""
+    """Add impact ``i``'s amplitudes to slot ``s`` at ``at``; the voice's peak heard level
+    sets each mode's omission threshold ``floor * peak / K``, as the offline bank's."""
     amplitudes, reference = ring[4], ring[6]
     poles, fs, heard = bank[1], bank[2], bank[3]
     zr, zi, active, debt, debt_at, thresholds, thr2, level = modal[:8]
@@ -474,8 +442,7 @@ def _begin_voices(t0, voice_form):
 
 @compiled(nogil=True, inline="always")
 def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
-    """At a block's end: ring every slot to it, free those whose modes all stopped or whose
-    stop fade ended (ending their voices if nothing is pending); returns those ringing."""
+    """Ring every slot to the block's end, free those silent or faded; returns those ringing."""
     records, slots, slot_gain = voice_form[0], voice_form[2], voice_form[3]
     active = modal[2]
     end = t0 + n
@@ -516,10 +483,9 @@ def mix_body(
     out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
     voice_form, events, limit,
 ):  # fmt: skip
-    """Mix one body into ``out[0:n]`` (samples from ``t0``) voice by voice (``vs``: scratch
-    of ``n`` plus the steal fade), the arrays as :func:`synth.live.state.body_form` groups
-    them; ``floor``: the omission floor (a fraction of a voice's peak); ``limit``: the most
-    pulses transformed (-1: all; the others wait). Returns the pulses transformed."""
+    """Mix one body into ``out[0:n]`` (samples from ``t0``; ``vs``: a voice's scratch), the
+    arrays as :func:`synth.live.state.body_form` groups them; ``floor``: the omission floor
+    (fraction of a voice's peak); ``limit``: most pulses transformed (-1: all)."""
     state, inject = ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
@@ -545,9 +511,7 @@ def mix_body(
             counters[LATE] += 1
             at = t0
         r = ring[7][i]
-        if _stopped(records, r):
-            _drop(state, i, records, r, counters)
-            _settle(records, r, events, counters[EARS])
+        if _drop_stopped(state, i, records, r, counters, events):
             continue
         s = records[r, V_SLOT]
         if s < 0:
@@ -576,8 +540,7 @@ def mix_body(
 
 @compiled(nogil=True)
 def silence(modal, ring, transformed, voice_form, counters, events):
-    """Stop every voice and drop every pending impact of a body (a slot being filled stays
-    its producer's); a dropped pulse counts as taken, keeping the ring's bound exact."""
+    """Stop every voice and drop every pending impact (a dropped pulse counts as taken)."""
     state, voice = ring[0], ring[7]
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     ears = counters[EARS]
@@ -606,10 +569,7 @@ def silence(modal, ring, transformed, voice_form, counters, events):
 
 
 def body_state(modes: int, voices: int) -> dict:
-    """The silent modal states of ``voices`` slots of ``modes`` modes by body-record name
-    (voices, modes): re, im, ringing flags, omission debts and their samples, thresholds and
-    their squares, the parked states of stopped modes (re, im) and their samples; and each
-    slot's peak ``level`` (voices,)."""
+    """The silent modal states of ``voices`` slots of ``modes`` modes, by body-record name."""
     names = ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2", "park_r", "park_i",
              "park_at")  # fmt: skip
     types = (float, float, np.bool_, float, np.int64, float, float, float, float, np.int64)

@@ -23,36 +23,29 @@ OVERSAMPLING = 4
 TAPS = 12
 #: Frames the interpolator reads on each side of a position (its reach).
 REACH = TAPS // 2
-#: The Kaiser window's beta of the interpolator: about 60 dB of side-lobe rejection
-#: (Kaiser's formula beta = 0.1102 (a - 8.7) for a = 60 dB gives 5.65).
+#: The interpolator's Kaiser beta: 60 dB side lobes (Kaiser's beta = 0.1102 (a - 8.7)).
 KAISER_BETA = 0.1102 * (60.0 - 8.7)
-#: How fast the gain rises back after a reduction, dB/s: 6 dB in 0.1 s, a release in the
-#: range of broadcast limiters (50-200 ms), slow enough that the gain's change adds no
-#: audible modulation to a modal ring.
+#: The gain's release, dB/s: 6 dB in 0.1 s, as broadcast limiters' (50-200 ms), slow enough
+#: to add no audible modulation to a modal ring.
 RELEASE_DB_PER_S = 60.0
-#: The margin below the ceiling the detector works to, relative: the float32 rounding of
-#: the device's samples (at most 2^-24 of each) moves an interpolated point by at most
-#: the interpolator's sum of |taps| (below 2) times that, so 2^-22 keeps the float32
-#: output's sample and true peaks at or below the ceiling.
+#: The detector's relative margin below the ceiling: float32 rounding (2^-24 a sample)
+#: moves an interpolated point by at most sum |taps| (< 2) times that.
 FLOAT32_MARGIN = 2.0**-22
-#: The default look-ahead, s (or one block if shorter): 72 frames at 48 kHz, of which 60
-#: of attack, short next to a block and to the latency a game accepts.
+#: The default look-ahead, s (or one block if shorter): 72 frames at 48 kHz, 60 of attack.
 LOOKAHEAD = 0.0015
 #: Fewest attack frames (a look-ahead shorter than ``2 * REACH + MIN_ATTACK`` is refused).
 MIN_ATTACK = 4
 
-#: ``ints`` fields: frames taken in, the last position whose r < 1, frames of the mean's
-#: window whose m < 1, frames out with a gain < 1 since the reset, D, A, channels.
+#: ``ints``: frames in, last position with r < 1, window frames with m < 1, frames out
+#: with a gain < 1 since the reset, D, A, channels.
 I_TAKEN, I_BELOW_AT, I_BOX_BELOW, I_ACTIVE, I_DELAY, I_ATTACK, I_CHANNELS, N_INTS = range(8)
-#: ``floats`` fields: the ceiling (linear), the release factor per frame, the last gain, the
-#: mean's running sum, the smallest gain since the reset.
+#: ``floats``: ceiling, release factor per frame, last gain, the mean's sum, least gain.
 F_CEILING, F_RELEASE, F_GAIN, F_SUM, F_MIN_GAIN, N_FLOATS = range(6)
 
 
 def interpolator() -> np.ndarray:
-    """The interpolator's phases 1..OVERSAMPLING-1, (OVERSAMPLING - 1, TAPS): phase ``p``
-    estimates ``x(q + p / OVERSAMPLING)``, tap ``j`` reading ``x[q - REACH + 1 + j]``: a
-    Kaiser-windowed sinc of half-width ``REACH``, unit gain at DC."""
+    """The interpolator's phases 1..OVERSAMPLING-1 (rows), phase ``p`` estimating ``x(q + p /
+    OVERSAMPLING)`` from ``x[q - REACH + 1 + j]``: Kaiser-windowed sincs, unit gain at DC."""
     h = np.empty((OVERSAMPLING - 1, TAPS))
     k = np.arange(TAPS) - (REACH - 1)  # sample offsets from q
     for p in range(1, OVERSAMPLING):
@@ -64,9 +57,7 @@ def interpolator() -> np.ndarray:
 
 
 def true_peak(x: np.ndarray) -> float:
-    """The limiter's true-peak estimate of a whole signal ``x`` ((frames,) or (frames,
-    channels), full scale 1; 0 outside): the largest magnitude of its samples and
-    interpolated points."""
+    """The limiter's true-peak estimate of a signal ``x`` ((frames[, channels]), 0 outside)."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
         x = x[:, None]
@@ -86,9 +77,8 @@ def min_delay() -> int:
 
 
 class LimiterState:
-    """The limiter's preallocated arrays for a look-ahead of ``delay`` frames (>=
-    :func:`min_delay`), a ``ceiling`` (linear) at ``samplerate`` Hz: ``ints``, ``floats``,
-    the ``taps``, the input ring ``x``, the required gains' ring ``r`` and the mean's ``m``."""
+    """The limiter's arrays for a look-ahead of ``delay`` frames, a ``ceiling`` (linear) at
+    ``samplerate`` Hz: ``ints``, ``floats``, ``taps``, input ring ``x``, rings ``r`` and ``m``."""
 
     def __init__(self, *, channels: int, delay: int, ceiling: float, samplerate: float):
         attack = delay - 2 * REACH
@@ -135,8 +125,7 @@ class LimiterState:
 
 @compiled(nogil=True, inline="always")
 def _required_gain(ints, floats, taps, x, q):
-    """``r(q)``: 1, or the ceiling over the true-peak estimate at position ``q`` (its sample
-    and the interpolated points after it, every channel) from the input ring ``x``."""
+    """``r(q)``: 1, or the ceiling over the true-peak estimate at ``q`` (every channel)."""
     L = x.shape[0]
     ceiling = floats[F_CEILING]
     peak = 0.0

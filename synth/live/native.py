@@ -1,12 +1,10 @@
-"""The audio thread without Python: PortAudio calls compiled code directly.
-
-:func:`stream_callback` is a numba ``cfunc`` of PortAudio's ``PaStreamCallback`` signature
-working on the engine's preallocated state (:mod:`synth.live.state`) through addresses
-(``ctl``'s as ``userData``, as python-rtmixer does): no GIL, allocation or lock. The Python
-fallback (:func:`run_block`) and :meth:`synth.live.Engine.process` call the same code; the
-rolling block (:func:`rolling_block_code`) is compiled apart, called through
-``ctl[ROLLER]``. numba keys this file's cache on the file alone: after changing a kernel it
-calls, delete ``synth/live/__pycache__/native.*``.
+"""The audio thread without Python: :func:`stream_callback` is a numba ``cfunc`` of
+PortAudio's ``PaStreamCallback`` signature working on the engine's preallocated state
+(:mod:`synth.live.state`) through addresses (``ctl``'s as ``userData``, as python-rtmixer
+does): no GIL, allocation or lock. The Python fallback and :meth:`synth.live.Engine.process`
+call the same code; the rolling block is compiled apart, called through ``ctl[ROLLER]``.
+numba keys this file's cache on the file alone: after changing a kernel it calls, delete
+``synth/live/__pycache__/native.*``.
 """
 
 from __future__ import annotations
@@ -37,9 +35,8 @@ CEILING = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
 
 @compiled(nogil=True, inline="always")
 def pan_gains(pan):
-    """The constant-power pan law: (left, right) = ``(cos(theta), sin(theta))``, ``theta =
-    (pan + 1) pi / 4`` for ``pan`` in [-1, 1] (centre -3.01 dB), written as sines so the ends
-    are exactly 1 and 0; NaN (unpanned): 1 on both."""
+    """The constant-power pan law ``(cos, sin)((pan + 1) pi / 4)`` (centre -3.01 dB), as sines
+    so the ends are exactly 1 and 0; NaN (unpanned): 1 on both."""
     if math.isnan(pan):
         return 1.0, 1.0
     return math.sin((1.0 - pan) * (0.25 * math.pi)), math.sin((1.0 + pan) * (0.25 * math.pi))
@@ -59,8 +56,7 @@ def _add_ramped(row, out, g0, g1, n):
 
 @intrinsic
 def _call_roller(typingctx, address, ctl, record, out, n):
-    """Call the rolling block (:func:`_roll_body`, a ``cfunc``) at ``address``: a plain C
-    call through a pointer on the addresses ``ctl``, ``record``, ``out`` and ``n`` frames."""
+    """Call the rolling block (:func:`_roll_body`, a ``cfunc``) at ``address`` (a C call)."""
     sig = types.int64(address, ctl, record, out, n)
 
     def codegen(context, builder, signature, args):
@@ -75,9 +71,8 @@ def _call_roller(typingctx, address, ctl, record, out, n):
 @compiled(nogil=True, inline="always")
 def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     """Mix the body of ``record`` over ``n`` frames from ``t0`` into its channel's row of
-    ``mix`` (row 0: every channel's; a panned body: the first two channels' at
-    :func:`pan_gains`), its gain ramped over the block, after a pending ``stop_all``.
-    ``limit``: the most pulses it transforms (-1: all). Returns the pulses transformed."""
+    ``mix`` (row 0: every channel's; panned: the first two at :func:`pan_gains`), its gain
+    ramped; ``limit``: most pulses transformed (-1: all). Returns the pulses transformed."""
     counters = st.i64_at(record[st.B_COUNTERS], kernel.N_COUNTERS)
     transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
     scalars = st.f64_at(record[st.B_SCALARS], st.N_SCALARS)
@@ -130,9 +125,8 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
 
 @compiled(nogil=True)
 def _share_budget(ctl, directory, bodies, allow, budget):
-    """Share a callback's ``budget`` of pulse transforms among the first ``bodies`` of the
-    ``directory`` (``allow[b]``), in turn from ``SHARE_FROM``: the first body left short is
-    served first next time, so none waits for ever. Counts ``TRANSFORMS_DEFERRED``."""
+    """Share a callback's ``budget`` of pulse transforms among the bodies (``allow[b]``), in
+    turn from ``SHARE_FROM``: the first left short is served first next time."""
     start = ctl[st.SHARE_FROM]
     if start >= bodies:
         start = 0
@@ -162,8 +156,7 @@ def _share_budget(ctl, directory, bodies, allow, budget):
 
 @compiled(nogil=True, inline="always")
 def soft_clip(v):
-    """The master bus' soft clipper: the identity up to ``KNEE``, then a tanh knee (C1)
-    capped at ``CEILING``, so no sample at or above 0 dBFS reaches the device."""
+    """The identity up to ``KNEE``, then a tanh knee (C1) capped at ``CEILING`` (< 0 dBFS)."""
     a = abs(v)
     if a <= kernel.KNEE:
         return v
@@ -192,9 +185,8 @@ def _limiter(ctl, channels):
 
 @compiled(nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
-    """The master bus over ``n`` frames into ``out[row:row + n]`` (channel ``c``: ``mix[0] +
-    mix[c + 1]``, cleared after): pause and stop fades, master gain, meters, limiter,
-    clipper, recording."""
+    """The master bus over ``n`` frames into ``out[row:]`` (channel ``c``: ``mix[0] + mix[c +
+    1]``, cleared): fades, master gain, meters, limiter, clipper, recording."""
     channels = out.shape[1]
     pos = ctl[st.FADE_AT]
     length = ctl[st.FADE_LENGTH]
@@ -264,9 +256,8 @@ def _write_block(ctl, times, mix, out, row, n):
 
 @compiled(nogil=True, inline="always")
 def _mix_engine(ctl, out, budget):
-    """Mix every body into ``out`` (float32 (frames, channels)) in pieces of at most
-    ``MIX_CAP`` frames, transforming at most ``budget`` pulses (-1: all). Paused (its fade
-    done), it writes silence and holds the clock."""
+    """Mix every body into ``out`` (float32 (frames, channels)) in pieces of ``MIX_CAP``
+    frames, at most ``budget`` pulses transformed (-1: all); paused, silence."""
     frames = out.shape[0]
     cap = ctl[st.MIX_CAP]
     times = st.f64_at(ctl[st.TIMES], st.N_TIMES)
@@ -316,10 +307,9 @@ def _transformed(ctl):
 
 @compiled(nogil=True, inline="always")
 def _run_block(ctl, out, flags, current, dac, entry_ns, device):
-    """One block (:func:`_mix_engine`), and for a stream's callback (``device``) its
-    accounting: PortAudio's ``flags``, the gap since the last entry, the clock's anchor (the
-    first frame leaves ``dac - current`` s after ``entry_ns`` plus the limiter's look-ahead)
-    and the run time as a fraction of the block. One call site: compiled once."""
+    """One block, and for a stream's callback (``device``) its accounting: PortAudio's
+    ``flags``, gaps, the clock's anchor (the first frame leaves ``dac - current`` s after
+    ``entry_ns`` plus the look-ahead) and the run time as a fraction of the block."""
     times = st.f64_at(ctl[st.TIMES], st.N_TIMES)
     frames = out.shape[0]
     if device:
@@ -368,9 +358,8 @@ CALLBACK_SIGNATURE = types.intc(
 
 
 def _callback(input, output, frames, time_info, flags, userdata):
-    """PortAudio's ``PaStreamCallback`` with ``userData`` the address of the engine's ``ctl``
-    (float32 interleaved output); a NULL ``timeInfo`` (:func:`mix_engine`) skips the device's
-    accounting. Returns paContinue."""
+    """PortAudio's ``PaStreamCallback`` on the engine's ``ctl`` (``userData``); a NULL
+    ``timeInfo`` (:func:`mix_engine`) skips the device's accounting."""
     entry = st.monotonic_ns()
     ctl = numba.carray(userdata, st.N_CTL, np.int64)
     out = numba.carray(output, (np.int64(frames), ctl[st.CHANNELS]), np.float32)
@@ -387,9 +376,8 @@ def _callback(input, output, frames, time_info, flags, userdata):
 
 @functools.cache
 def stream_callback():
-    """The compiled :func:`_callback` (a numba ``CFunc``), made on first use. The block's only
-    compiled entry (Python calls it too): numba compiles a kernel's tree again into each
-    caller compiled on its own."""
+    """The compiled :func:`_callback`, the block's only compiled entry (Python calls it too):
+    numba compiles a kernel's tree again into each caller compiled on its own."""
     with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
         return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
             _callback
@@ -400,8 +388,7 @@ ROLLER_SIGNATURE = types.int64(types.int64, types.int64, types.int64, types.int6
 
 
 def _roll_body(ctl_address, record_address, out_address, n):
-    """The rolling voices of a body over ``n`` frames added into its mix
-    (:func:`synth.live.rolling_block.mix_rolls`); 1 if one rang, else 0."""
+    """A body's rolling voices over ``n`` frames added into its mix; 1 if one rang."""
     ctl = st.i64_at(ctl_address, st.N_CTL)
     record = st.i64_at(record_address, st.N_BODY)
     out = st.f64_at(out_address, n)
@@ -412,9 +399,8 @@ def _roll_body(ctl_address, record_address, out_address, n):
 
 @functools.cache
 def rolling_block_code():
-    """The compiled :func:`_roll_body`, called through ``ctl[ROLLER]``: apart from the
-    callback, so an engine without rolling slots never compiles the rolling integrator
-    (the live engine's largest kernel)."""
+    """The compiled :func:`_roll_body`: apart, so an engine without rolling slots never
+    compiles the rolling integrator (the largest kernel)."""
     with cfunc_compiling(_roll_body, ROLLER_SIGNATURE):
         return numba.cfunc(ROLLER_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
             _roll_body
@@ -422,8 +408,7 @@ def rolling_block_code():
 
 
 def check_block(ctl: np.ndarray, out) -> None:
-    """``out`` must be what the compiled block writes: a writeable C-contiguous float32
-    (frames, channels) array."""
+    """``out`` checked: a writeable C-contiguous float32 (frames, channels) array."""
     channels = int(ctl[st.CHANNELS])
     if not (
         isinstance(out, np.ndarray)
@@ -439,23 +424,17 @@ def check_block(ctl: np.ndarray, out) -> None:
         )
 
 
-def mix_engine(ctl: np.ndarray, out: np.ndarray) -> None:
-    """Mix the next ``out.shape[0]`` frames of every body into ``out`` (float32 (frames,
-    channels)) with the stream's compiled callback, without its device accounting."""
+def mix_engine(ctl: np.ndarray, out: np.ndarray, flags: int = 0, time_info=None) -> None:
+    """Mix the next frames into ``out`` with the compiled callback; with ``time_info``
+    (float64 adc, current and dac times, s; the Python fallback's) and PortAudio's ``flags``,
+    the device's accounting too."""
     check_block(ctl, out)
-    stream_callback().ctypes(None, out.ctypes.data, out.shape[0], None, 0, ctl.ctypes.data)
-
-
-def run_block(ctl: np.ndarray, out: np.ndarray, flags: int, time_info: np.ndarray) -> None:
-    """The compiled callback's work called from Python (the fallback callback): PortAudio's
-    status ``flags`` and ``time_info`` (float64 adc, current and dac times, s) accounted,
-    then the block mixed into ``out``."""
-    check_block(ctl, out)
-    if time_info.dtype != np.float64 or time_info.shape != (3,):
-        raise ValueError(f"time_info {time_info.dtype} {time_info.shape} must be float64 (3,)")
-    stream_callback().ctypes(
-        None, out.ctypes.data, out.shape[0], time_info.ctypes.data, flags, ctl.ctypes.data
-    )
+    info = None
+    if time_info is not None:
+        if time_info.dtype != np.float64 or time_info.shape != (3,):
+            raise ValueError(f"time_info {time_info.dtype} {time_info.shape} must be float64 (3,)")
+        info = time_info.ctypes.data
+    stream_callback().ctypes(None, out.ctypes.data, out.shape[0], info, flags, ctl.ctypes.data)
 
 
 @compiled(nogil=True)
@@ -463,14 +442,13 @@ def transform_pending(record):
     """Transform a body's waiting pulses now, on the calling thread (before a stream starts)."""
     bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
     transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
-    # limit -1 as an int64, mix_body's type: a literal would compile transform_pulses twice
+    # -1 as mix_body's int64: a literal would compile transform_pulses twice
     kernel.transform_pulses(ring, transform, pulse_form, transformed, bank[3], np.int64(-1))
 
 
 @compiled(nogil=True)
 def silence_body(ctl, record):
-    """:func:`synth.live.kernel.silence` of a body and its rolling voices: a pending
-    ``stop_all``, or at once on the calling thread when no stream runs."""
+    """:func:`synth.live.kernel.silence` of a body and its rolling voices (``stop_all``)."""
     bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
     counters = st.i64_at(record[st.B_COUNTERS], kernel.N_COUNTERS)
     transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
@@ -479,32 +457,25 @@ def silence_body(ctl, record):
 
 
 def warm_up(rolling: bool = False) -> None:
-    """Compile (or load) everything the audio thread runs, on a one-mode body with one pulse
-    handed over, so that no callback compiles; with ``rolling``, the rolling block too."""
+    """Compile (or load) all the audio thread runs, on a one-mode body with a pulse handed
+    over, so that no callback compiles; with ``rolling``, the rolling block too."""
     from synth.live.queue import PendingRing
-    from synth.sound.modal_bank import bank_coefficients, power_table
+    from synth.sound.modal_bank import bank_coefficients
 
     fs = 48000
-    poles = np.array([-10.0 + 1000.0j])
     ring = PendingRing(1, 1, 2, 7, 1, voices=2)
-    voice = ring.open_voice(1, 1)
-    slot = ring.reserve(pulse=True, voice=voice)
+    slot = ring.reserve(pulse=True, voice=ring.open_voice(1, 1))
     ring.pulse[slot, [kernel.GAIN, kernel.STEP, kernel.CONTACT_TIME, kernel.ORDER]] = (
         1.0, 1e-5, 4e-5, 2.5
     )  # fmt: skip
-    ring.publish_pulse(slot, 1, 0, 0, 5)
-    state = st.EngineState(
-        samplerate=fs, channels=1, max_bodies=1, mix_frames=8, record_frames=4,
-        fade_frames=4, clip=True, transforms_per_block=1,
-    )  # fmt: skip
-    c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
-    record = state.add_body(st.body_arrays(
-        c, power_table(poles, float(fs)), kernel.body_state(1, 1), ring, 1e-4, 1.0,
-        steal_frames=4, gains=np.ones(1),
-    ))  # fmt: skip
-    transform_pending(record)
+    ring.publish(slot, 1, 0, 0, points=5)
+    options = st.EngineOptions(samplerate=fs, max_bodies=1, callback="python")
+    state = st.EngineState(options)
+    c = bank_coefficients(np.array([-10.0 + 1000.0j]), np.ones(1), np.ones(1), float(fs))
+    index = state.add_body(c, np.ones(1), ring, st.BodySettings())
+    transform_pending(state.records[index][0])
     out = np.zeros((8, 1), dtype=np.float32)
-    run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
+    mix_engine(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
     mix_engine(state.ctl, out)
     if rolling:
         rolling_block_code()

@@ -1,10 +1,8 @@
-"""The hand-off of impacts from trigger threads to the audio thread (docs/live.md, "What runs
-where"): each body has a bounded ring of preallocated slots, each an impact READY (mode
-amplitudes computed by the producer) or a PULSE (its force pulse, transformed by the audio
-thread; at most ``max_new`` wait, bounding a block's work). A producer reserves a FREE slot
-under the producers' lock (the audio thread never takes it), fills it and writes its state
-word last, after a fence; a full ring refuses and counts. Each impact belongs to a voice
-record (:data:`synth.live.kernel.V_ID`) whose gain and stop producers write under the lock.
+"""The hand-off of impacts from trigger threads to the audio thread (docs/live.md): a body's
+bounded ring of preallocated slots, each an impact READY (mode amplitudes computed by the
+producer) or a PULSE (transformed by the audio thread; at most ``max_new`` wait). A producer
+reserves a FREE slot under the producers' lock (never the audio thread's), fills it and
+writes its state word last, after a fence; a full ring refuses and counts.
 """
 
 from __future__ import annotations
@@ -21,9 +19,8 @@ WRITING = 2
 
 
 class PendingRing:
-    """``capacity`` slots of pending impacts of ``modes`` modes, each with up to ``max_contact``
-    in-contact samples and ``pulse_samples`` of its pulse; at most ``max_new`` wait in the
-    PULSE form; ``voices`` voice records."""
+    """``capacity`` slots of impacts of ``modes`` modes (``max_contact`` in-contact samples,
+    ``pulse_samples`` of pulse; at most ``max_new`` PULSE ones wait), ``voices`` records."""
 
     def __init__(
         self,
@@ -45,9 +42,8 @@ class PendingRing:
         self.amplitudes = np.zeros((capacity, modes), dtype=complex)
         self.response = np.zeros((capacity, max_contact))
         self.reference = np.zeros(capacity)
-        # the PULSE form: the listener's coefficients (re, im); the force (N) and its slope
-        # (N/s) on the grid's ``points`` points, then at the in-contact samples; the
-        # scalars of kernel.N_PULSE_FIELDS
+        # the PULSE form: coefficients (re, im); force (N) and slope (N/s) on the grid's
+        # ``points`` points then at the in-contact samples; kernel.N_PULSE_FIELDS scalars
         self.coefficients = np.zeros((capacity, 2, modes))
         self.samples = np.zeros((capacity, 2, pulse_samples))
         self.points = np.zeros(capacity, dtype=np.int64)
@@ -67,8 +63,7 @@ class PendingRing:
         return int(np.count_nonzero((self.state == kernel.READY) | (self.state == kernel.PULSE)))
 
     def open_voice(self, vid: int, impacts: int, priority: int = 0) -> int:
-        """A free voice record for voice ``vid`` of ``priority`` handing over ``impacts``, or -1
-        (counted in ``refused``)."""
+        """A free voice record for voice ``vid`` handing over ``impacts``, or -1 (counted)."""
         with self._lock:
             r = int(self.voices[:, kernel.V_STATE].argmin())
             if self.voices[r, kernel.V_STATE] != kernel.V_FREE:
@@ -104,8 +99,7 @@ class PendingRing:
         )
 
     def control_voice(self, r: int, vid: int, gain=None, stop=None) -> None:
-        """Set voice ``vid``'s gain or ask its stop fade (samples; the first is kept), if record
-        ``r`` still holds it."""
+        """Set voice ``vid``'s gain or stop fade (samples; the first kept), if ``r`` holds it."""
         with self._lock:
             if not self.voice_alive(r, vid):
                 return
@@ -115,9 +109,8 @@ class PendingRing:
                 self.voices[r, kernel.V_STOP] = stop
 
     def reserve(self, pulse: bool = False, bounded: bool = True, voice: int = 0) -> int:
-        """A FREE slot for an impact of voice record ``voice``, marked WRITING for the caller
-        to fill and publish (``pulse``: :meth:`publish_pulse`); -1 (counted) when the ring is
-        full or, for a pulse if ``bounded`` (a device's deadline), ``max_new`` wait."""
+        """A FREE slot for voice record ``voice``, marked WRITING for the caller to fill and
+        publish; -1 (counted) when full or, for a ``bounded`` pulse, ``max_new`` wait."""
         with self._lock:
             i = self._next
             if self.state[i] != kernel.FREE:  # slots mostly free in the order they were taken
@@ -146,23 +139,19 @@ class PendingRing:
             self.voice[slots] = voice
             return slots
 
-    def publish(self, slot: int, inject: int, first: int, length: int, reference: float):
-        """Hand the filled ``slot`` over: its amplitudes join at sample ``inject``, its
-        ``length`` in-contact samples start at ``first``; ``reference``: its heard peak."""
+    def publish(self, slot: int, inject: int, first: int, length: int, reference=0.0, points=None):
+        """Hand ``slot`` over: amplitudes join at sample ``inject``, ``length`` in-contact
+        samples from ``first``; READY with its heard peak ``reference``, or a PULSE of
+        ``points`` grid samples."""
         self.length[slot] = length
         self.first[slot] = first
         self.inject[slot] = inject
-        self.reference[slot] = reference
-        publish(self.state, slot, kernel.READY)  # last: the audio thread reads it
-
-    def publish_pulse(self, slot: int, inject: int, first: int, length: int, points: int):
-        """Hand ``slot`` over in the PULSE form: ``points`` grid samples then ``length``
-        in-contact ones from sample ``first``; its amplitudes join at ``inject``."""
-        self.points[slot] = points
-        self.length[slot] = length
-        self.first[slot] = first
-        self.inject[slot] = inject
-        publish(self.state, slot, kernel.PULSE)  # last, as in publish
+        if points is None:
+            self.reference[slot] = reference
+        else:
+            self.points[slot] = points
+        form = kernel.READY if points is None else kernel.PULSE
+        publish(self.state, slot, form)  # last: the audio thread reads it
 
     def release(self, slot: int, pulse: bool = False) -> None:
         """Give a reserved slot back unfilled (its impact failed before publishing)."""

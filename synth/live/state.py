@@ -1,7 +1,7 @@
-"""The engine's state: the preallocated arrays the audio thread reaches through their
-addresses (its callback touches no Python object), their layout and their memory: ``ctl``
-(int64), ``times`` (float64), a directory of body records (:data:`BODY_FIELDS`;
-:func:`body_form` makes the kernel's views) and the voice-ended event ring.
+"""The engine's options and state: the preallocated arrays the audio thread reaches through
+their addresses (its callback touches no Python object): ``ctl`` (int64), ``times``
+(float64), a directory of body records (:data:`BODY_FIELDS`; :func:`body_form` makes the
+kernel's views) and the voice-ended event ring.
 """
 
 from __future__ import annotations
@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 import mmap
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -16,25 +18,24 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from synth import checks
 from synth.compilation import compiled
-from synth.live import kernel, limiter, rolling_block
+from synth.errors import ParameterError
+from synth.live import kernel, rolling_block
 from synth.live.atomics import pointer_to as pointer_to
 from synth.live.heard import N_HEARD_ROWS, heard_arrays
+from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
+from synth.live.rolling import MAX_ROLLS
+from synth.live.voice import MAX_VOICES, STEAL_FADE, check_int, closed
+from synth.sound.modal_bank import PULSE_POINTS
 
-#: ``ctl`` fields (int64): the next frame to mix; the stop fade's position (-1 none), length
-#: (frames) and first frame (-1 before); the bodies mixed (counted after their record) and
-#: the directory's length; channels; the scratch buffers' frames; callbacks, and those
-#: PortAudio flagged output underflow and overflow; samples that reached full scale before
-#: the clipper; the anchor's sequence number (odd while written); the recording's frames
-#: and those recorded; the addresses of ``times``, the body directory, the master mix
-#: (float64, CHANNELS + 1 rows of MIX_CAP: every channel's bus, then each channel's own),
-#: the scratch (a body's mix and a voice's, 2 x MIX_CAP), the recording (float32,
-#: RECORD_FRAMES x CHANNELS); 1: soft-clip; the event ring's address and length (header
-#: included); 1: pause asked; 1: limit; the limiter's arrays' addresses
-#: (:meth:`~synth.live.limiter.LimiterState.arrays`); the most pulses a callback
-#: transformed, a callback's budget, pulses left waiting, the body the next share serves
-#: first, the address of the shares (int64, MAX_BODIES); the rolling block's address (0:
-#: none).
+#: ``ctl`` fields (int64): the clock (next frame), the stop fade (position, length, first
+#: frame), bodies counted and room, channels, mixing piece (frames), callbacks and PortAudio's
+#: under/overflows, samples clipped, the anchor's sequence number (odd while written),
+#: recording (room, written), addresses of ``times``, the directory, mix (CHANNELS + 1 rows:
+#: the common bus, then each channel's), scratch, recording, flags (clip), the event ring
+#: (address, length), pause and limit flags, the limiter's arrays, the transform budget's
+#: figures and shares, the rolling block's address (0: none).
 (
     FRAME, FADE_AT, FADE_LENGTH, FADE_FRAME, N_BODIES, MAX_BODIES, CHANNELS, MIX_CAP,
     CALLBACKS, UNDERFLOWS, OVERFLOWS, CLIPPED, SEQ, RECORD_FRAMES, RECORDED, TIMES, DIRECTORY,
@@ -43,15 +44,10 @@ from synth.live.heard import N_HEARD_ROWS, heard_arrays
     SHARE_FROM, ALLOW, ROLLER, N_CTL,
 ) = range(38)  # fmt: skip
 
-#: ``times`` fields (float64): the sample rate (Hz); the stream's nominal latency and the
-#: last callback's ``outputBufferDacTime - currentTime`` (s); the anchor: the last
-#: callback's first frame and the monotonic time (s) it leaves the device; the monotonic
-#: time at the last callback's end and the frame after its block; the sum, largest and last
-#: callback run time (a fraction of its block); the master gain's target and its value at
-#: the last block's end (linear); the largest ``|sample|`` of the bus before the clipper and
-#: at the device since the last reset; the last callback's entry (s, 0 before) and the
-#: longest gap between entries (blocks); the pause level (1 playing, 0 paused, ramped over
-#: FADE_LENGTH); the limiter's look-ahead (s; the bus leaves that much later).
+#: ``times`` fields (float64): rate (Hz), nominal and last output latency (s), the anchor
+#: (a callback's first frame and its monotonic time at the device, s), the last callback's
+#: end (s, frame), its run time (sum, max, last; fractions of a block), master gain (target,
+#: now), peaks (bus, device), last entry (s) and longest gap (blocks), pause level, look-ahead.
 (
     SAMPLERATE, NOMINAL_LATENCY, LEAD, ANCHOR_FRAME, ANCHOR_DAC, END_TIME, END_FRAME,
     COST_SUM, COST_MAX, COST_LAST, MASTER_GAIN, MASTER_NOW, PEAK, OUT_PEAK, LAST_ENTRY,
@@ -71,13 +67,12 @@ from synth.live.heard import N_HEARD_ROWS, heard_arrays
     B_ROLL_INTS, B_ROLL_FLOATS, B_ROLL_Y, B_ROLL_BUF, B_ROLL_Z, B_ROLL_COEF,
     B_ROLL_TABLES, B_ROLL_META, B_N_ROLLS, B_ROLL_ROWS, B_ROLL_FRAMES, N_BODY,
 ) = range(64)  # fmt: skip
-#: The record's field names, as :func:`body_arrays` keys them: ``B_TABLE`` is "table".
+#: The record's field names, as :meth:`EngineState.body_arrays` keys them (B_TABLE: "table").
 BODY_FIELDS = tuple(name[2:].lower() for name in sorted(
     (n for n in vars() if n.startswith("B_")), key=vars().get))  # fmt: skip
 
-#: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
-#: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
-#: its pan's target and its value now (in [-1, 1], NaN unpanned; see :func:`pan_gains`).
+#: A body's scalars (float64): rate (Hz), omission floor, largest decay rate (1/s), sample
+#: period (s), gain and pan (target and now; pan NaN unpanned).
 S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW, N_SCALARS = range(9)
 
 #: The clock the callback reads (and the trigger threads, in Python).
@@ -138,8 +133,7 @@ def i64_at(address, n):
 @compiled(nogil=True)
 def body_form(record):
     """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body` takes
-    them: the bank (power table, poles, rate, the listener's gains and their sequence), the
-    slots' modal states, the pending ring, the pulses' transform and PULSE form, the voices."""
+    them: bank, modal states, pending ring, transform, PULSE form, voices."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
@@ -206,8 +200,7 @@ def body_form(record):
 
 @compiled(nogil=True, inline="always")
 def rolling_form(record):
-    """Views of a body's rolling slots and listener's gains, as
-    :func:`synth.live.rolling_block.mix_rolls` takes them."""
+    """Views of a body's rolling slots and gains, as :func:`rolling_block.mix_rolls` takes them."""
     R = record[B_N_ROLLS]
     K = record[B_MODES]
     P = record[B_ROLL_ROWS]
@@ -236,9 +229,8 @@ def event_ring(ctl):
 
 
 def touch(a: np.ndarray) -> np.ndarray:
-    """Map every page of the C-contiguous array ``a`` now (calloc'd pages are mapped at their
-    first access, a zero page copied at its first write), so the audio thread never takes a
-    page fault on it: a byte of each page is rewritten (read, if read-only). Returns ``a``."""
+    """Map every page of the C-contiguous ``a`` now (calloc'd pages map at first access), so
+    the audio thread takes no page fault on it: a byte a page rewritten (read if read-only)."""
     b = a.reshape(-1).view(np.uint8)
     if b.size == 0:
         return a
@@ -250,52 +242,190 @@ def touch(a: np.ndarray) -> np.ndarray:
     return a
 
 
-class EngineState:
-    """The arrays the audio thread works on, allocated once (``samplerate`` Hz, scratch of
-    ``mix_frames``, ``limit`` the limiter's state or None, ``roller`` the rolling block's
-    address or 0)."""
+#: The stream callbacks (compiled, or a Python fallback); latencies PortAudio takes by name.
+STREAM_CALLBACKS = ("native", "python")
+LATENCIES = ("low", "high")
+#: Longest output ``process`` mixes in one call and ``record_seconds`` keeps, s.
+MAX_SECONDS = 600.0
+#: Defaults: room in the body directory, hits a callback transforms (``max_hits_per_block``).
+DEFAULT_MAX_BODIES = 256
+HITS_PER_BLOCK = 16
+#: Frames a body's mixing piece holds (at least a block).
+MIX_FRAMES = 4096
+#: The integer options' bounds and units, and the real options' closed ranges and units.
+_INTEGERS = (
+    ("samplerate", 8000, 384000, "Hz"), ("blocksize", 16, 8192, "frames"),
+    ("channels", 1, 64, "channels"), ("max_pending", 1, 4096, "impacts"),
+    ("pulse_points", 5, 100_000, "points"), ("max_bodies", 1, 65536, "bodies"),
+    ("max_voices", 1, 256, "voices"), ("max_rolls", 0, 16, "rolling voices"),
+)  # fmt: skip
+_RANGES = (
+    ("fade", 0.001, 1.0, "s"), ("handover", 0.0, 0.1, "s"),
+    ("record_seconds", 0.0, MAX_SECONDS, "s"), ("master_gain_db", -120.0, 40.0, "dB"),
+    ("ceiling_db", -20.0, 0.0, "dBFS"),
+)  # fmt: skip
 
-    def __init__(
-        self,
-        *,
-        samplerate: int,
-        channels: int,
-        max_bodies: int,
-        mix_frames: int,
-        record_frames: int,
-        fade_frames: int,
-        clip: bool,
-        transforms_per_block: int,
-        events: int = 4096,
-        limit: limiter.LimiterState | None = None,
-        roller: int = 0,
-    ):
+
+@dataclass(frozen=True, kw_only=True)
+class EngineOptions:
+    """An :class:`Engine`'s settings, checked and converted on construction; docs/live.md
+    states each (SI units: Hz, s, dB; frames and counts are integers)."""
+
+    samplerate: int
+    blocksize: int = 256
+    device: int | str | None = None
+    latency: str | float = "low"
+    channels: int = 1
+    floor_db: float = -80.0
+    max_pending: int = 128
+    max_hits_per_block: int | None = None
+    max_frequency: float | None = None
+    pulse_points: int = PULSE_POINTS
+    fade: float = 0.01
+    handover: float = 0.002
+    record_seconds: float = 0.0
+    master_gain_db: float = 0.0
+    clip: bool = True
+    limiter: bool = False
+    ceiling_db: float = -1.0
+    lookahead: float | None = None
+    callback: str = "native"
+    max_bodies: int = DEFAULT_MAX_BODIES
+    max_voices: int = MAX_VOICES
+    max_total_voices: int | None = None
+    on_device_lost: Callable[[str], object] | None = None
+    max_rolls: int = MAX_ROLLS
+
+    def __post_init__(self):
+        for name, lo, hi, unit in _INTEGERS:
+            self._set(name, check_int(name, getattr(self, name), lo, hi, unit))
+        for name, lo, hi, unit in _RANGES:
+            self._set(name, closed(name, getattr(self, name), lo, hi, unit))
+        for name in ("clip", "limiter"):
+            if not isinstance(getattr(self, name), bool):
+                raise ParameterError(f"{name}={getattr(self, name)!r} must be True or False")
+        d = self.device
+        if d is not None and (isinstance(d, bool) or not isinstance(d, (int, str))):
+            raise ParameterError(f"device={d!r} must be None, a device index or a device name")
+        self._set("latency", _latency(self.latency))
+        if not checks.real("floor_db", self.floor_db, "dB", "< 0") < 0.0:
+            raise ParameterError(f"floor_db={self.floor_db!r} must be < 0 (dB)")
+        hits = self.max_hits_per_block
+        hits = min(HITS_PER_BLOCK, self.max_pending) if hits is None else hits
+        hits = check_int("max_hits_per_block", hits, 1, self.max_pending, "impacts")
+        self._set("max_hits_per_block", hits)
+        if self.max_frequency is not None:
+            top = checks.positive("max_frequency", self.max_frequency, "Hz")
+            if top > 0.5 * self.samplerate:
+                raise ParameterError(
+                    f"max_frequency={self.max_frequency!r} must be <= the Nyquist "
+                    f"frequency {0.5 * self.samplerate:g} Hz"
+                )
+            self._set("max_frequency", top)
+        self._check_lookahead()
+        self._set("callback", checks.choice("callback", self.callback, STREAM_CALLBACKS))
+        if self.on_device_lost is not None and not callable(self.on_device_lost):
+            raise ParameterError(f"on_device_lost={self.on_device_lost!r} must be None or callable")
+        if self.callback == "native" and not native_available():
+            raise ParameterError(
+                "callback='native' needs a POSIX monotonic clock, which this platform lacks: "
+                "use callback='python'"
+            )
+        if self.max_total_voices is not None:
+            total = check_int("max_total_voices", self.max_total_voices, 1, 65536, "voices")
+            self._set("max_total_voices", total)
+
+    def _set(self, name: str, value):
+        object.__setattr__(self, name, value)
+        return value
+
+    def _check_lookahead(self) -> None:
+        if self.lookahead is not None:
+            self._set("lookahead", checks.positive("lookahead", self.lookahead, "s"))
+        frames, lo, hi = self.lookahead_frames(), min_delay(), self.blocksize
+        if self.limiter and not lo <= frames <= hi:
+            raise ParameterError(
+                f"lookahead={self.lookahead!r} s is {frames} frames at samplerate="
+                f"{self.samplerate} Hz with blocksize={self.blocksize}; it must be in "
+                f"[{lo}, {hi}] frames (at least the interpolator's reach and a "
+                f"{MIN_ATTACK}-frame attack, at most one block)"
+            )
+
+    def lookahead_frames(self) -> int:
+        """The limiter's look-ahead, frames (default ``LOOKAHEAD`` or one block if shorter)."""
+        if self.lookahead is None:
+            return min(int(round(LOOKAHEAD * self.samplerate)), self.blocksize)
+        return int(round(self.lookahead * self.samplerate))
+
+    def frames(self, seconds: float) -> int:
+        """``seconds`` (s) in frames at the engine's rate, at least 1."""
+        return max(1, int(round(seconds * self.samplerate)))
+
+    def limiter_state(self) -> LimiterState | None:
+        """The limiter's arrays, or None without ``limiter``."""
+        if not self.limiter:
+            return None
+        ceiling = 10.0 ** (self.ceiling_db / 20.0)
+        return LimiterState(channels=self.channels, delay=self.lookahead_frames(),
+                            ceiling=ceiling, samplerate=self.samplerate)  # fmt: skip
+
+
+def _latency(latency):
+    if isinstance(latency, str):
+        try:
+            latency = float(latency)
+        except ValueError:
+            return checks.choice("latency", latency, LATENCIES)
+    return checks.in_range("latency", latency, 0.0, 10.0, "s", hi_open=False)
+
+
+@dataclass(frozen=True)
+class BodySettings:
+    """A body's (one ear's) mixing: ``gain`` (linear), ``voices`` slots, ``pan`` in [-1, 1]
+    (NaN: unpanned), output ``channel`` (-1: all) and the ``ears`` its voices ring at."""
+
+    gain: float = 1.0
+    voices: int = 1
+    pan: float = math.nan
+    channel: int = -1
+    ears: int = 1
+
+
+class EngineState:
+    """The arrays the audio thread works on, allocated once from the engine's ``options``
+    (``roller``: the rolling block's address or 0)."""
+
+    def __init__(self, options: EngineOptions, roller: int = 0, events: int = 4096):
+        o = options
+        fs, channels, mix_frames = o.samplerate, o.channels, max(o.blocksize, MIX_FRAMES)
+        record_frames = int(round(o.record_seconds * fs))
+        self.floor = 10.0 ** (o.floor_db / 20.0)
+        self.steal_frames = o.frames(STEAL_FADE)
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
-        self.directory = np.zeros(max_bodies, dtype=np.int64)
-        self.allow = np.zeros(max_bodies, dtype=np.int64)
+        self.directory = np.zeros(o.max_bodies, dtype=np.int64)
+        self.allow = np.zeros(o.max_bodies, dtype=np.int64)
         self.mix = np.zeros((channels + 1, mix_frames))
         self.scratch = np.zeros((2, mix_frames))
         # the voice-ended events: the kernel's header, then a ring of ``events``
         self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
         self.records: list = []  # the bodies' records and arrays, kept alive here
-        self.limiter = limit
+        self.limiter = limit = o.limiter_state()
         c, t = self.ctl, self.times
         arrays = (self.directory, self.allow, self.mix, self.scratch, self.events, self.recording)
         c[[DIRECTORY, ALLOW, MIX, SCRATCH, EVENTS, RECORD]] = [touch(a).ctypes.data for a in arrays]
-        sizes = (self.events.shape[0], max_bodies, channels, mix_frames, record_frames)
+        sizes = (self.events.shape[0], o.max_bodies, channels, mix_frames, record_frames)
         c[[N_EVENTS, MAX_BODIES, CHANNELS, MIX_CAP, RECORD_FRAMES]] = sizes
-        c[[TIMES, TRANSFORM_BUDGET, CLIP]] = (t.ctypes.data, transforms_per_block, clip)
-        c[[FADE_AT, FADE_LENGTH, FADE_FRAME, ROLLER]] = (-1, fade_frames, -1, roller)
+        c[[TIMES, TRANSFORM_BUDGET, CLIP]] = (t.ctypes.data, o.max_hits_per_block, o.clip)
+        c[[FADE_AT, FADE_LENGTH, FADE_FRAME, ROLLER]] = (-1, o.frames(o.fade), -1, roller)
         if limit is not None:
             c[LIMIT] = 1
             lim = [a.ctypes.data for a in limit.arrays()]
             c[[LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M]] = lim
-            t[LIMIT_DELAY] = limit.delay / samplerate
-        t[[SAMPLERATE, MASTER_GAIN, MASTER_NOW, PAUSE_LEVEL]] = (samplerate, 1.0, 1.0, 1.0)
-        # the record a removed body's directory entry points to: a body with no voice
-        # slot and no pending slot, asleep for good (the callback returns at once)
+            t[LIMIT_DELAY] = limit.delay / fs
+        t[[SAMPLERATE, MASTER_GAIN, MASTER_NOW, PAUSE_LEVEL]] = (fs, 1.0, 1.0, 1.0)
+        # the record a removed body's entry points to: no voice or pending slot, asleep
         self._vacant_arrays = dict(
             counters=np.zeros(kernel.N_COUNTERS, dtype=np.int64),
             transformed=np.zeros(1, dtype=np.int64),
@@ -313,9 +443,10 @@ class EngineState:
         """The address of ``ctl``: the callback's ``userData``."""
         return self.ctl.ctypes.data
 
-    def add_body(self, arrays: dict) -> np.ndarray:
-        """Publish a body (arrays and sizes by :data:`BODY_FIELDS` name) to the audio thread:
-        its record is written, then counted. Returns the record."""
+    def add_body(self, coefficients, gains, ring, settings: BodySettings, rolls=None) -> int:
+        """Publish a body to the audio thread (:meth:`body_arrays`): its record is written,
+        then counted. Returns its index in :attr:`records`."""
+        arrays = self.body_arrays(coefficients, gains, ring, settings, rolls)
         n = int(self.ctl[N_BODIES])
         free = [i for i, r in enumerate(self.records) if r is None]
         if not free and n >= self.directory.shape[0]:
@@ -326,18 +457,57 @@ class EngineState:
             if isinstance(value, np.ndarray):
                 if not value.flags.c_contiguous:
                     raise ValueError(f"{name} must be C-contiguous")
-                touch(value)  # the audio thread takes no page fault on it
-                record[i] = value.ctypes.data
+                record[i] = touch(value).ctypes.data  # no page fault on the audio thread
             else:
                 record[i] = int(value)
         if free:  # a removed body's entry: the callback mixes the body from the write on
             self.records[free[0]] = (record, arrays)
             self.directory[free[0]] = record.ctypes.data
-            return record
+            return free[0]
         self.records.append((record, arrays))
         self.directory[n] = record.ctypes.data
         self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
-        return record
+        return n
+
+    def body_arrays(self, coefficients, gains, ring, settings: BodySettings, rolls=None) -> dict:
+        """A body's arrays and sizes by :data:`BODY_FIELDS` name: its bank ``coefficients``,
+        the listener's complex ``gains`` (K,), its pending ``ring`` (:mod:`synth.live.queue`),
+        ``settings`` and rolling slots (None: none)."""
+        from synth.sound.modal_bank import power_table, transform_workspace
+
+        c, s = coefficients, settings
+        fs = float(c.samplerate)
+        K = c.poles.size
+        poles = np.ascontiguousarray(c.poles, dtype=np.complex128)
+        heard, heard_seq = heard_arrays(np.asarray(gains, dtype=complex))
+        voice_slots = np.zeros((s.voices, kernel.N_SLOT_FIELDS), dtype=np.int64)
+        voice_slots[:, kernel.SL_OWNER] = -1
+        counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
+        counters[[kernel.EARS, kernel.STEAL_FRAMES]] = (s.ears, self.steal_frames)
+        tail = np.zeros(self.mix.shape[1] + self.steal_frames)
+        scalars = np.zeros(N_SCALARS)
+        fields = [S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW]
+        scalars[fields] = (fs, self.floor, c.sigma_max, 1.0 / fs, s.gain, s.gain, s.pan, s.pan)
+        work = transform_workspace(K)
+        table = power_table(poles, fs)
+        if rolls is None:
+            rolls = rolling_block.rolling_arrays(0, K, 2, 1)
+        return rolls | kernel.body_state(K, s.voices) | dict(
+            table=table, poles=poles, state=ring.state, inject=ring.inject, first=ring.first,
+            length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
+            reference=ring.reference, counters=counters,
+            pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
+            step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
+            work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
+            pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
+            modes=K, slots=ring.capacity, contact=ring.max_contact,
+            pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
+            channel=s.channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
+            voice_slots=voice_slots, slot_gain=np.ones((s.voices, 2)), tail=tail,
+            n_records=ring.voices.shape[0], n_voice_slots=s.voices, tail_frames=tail.shape[0],
+            heard=heard, heard_seq=heard_seq,
+            heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
+        )  # fmt: skip
 
     def bodies_held(self) -> int:
         """Bodies in the directory (removed ones not counted)."""
@@ -367,62 +537,3 @@ class EngineState:
             frame, dac = float(t[ANCHOR_FRAME]), float(t[ANCHOR_DAC])
             if seq % 2 == 0 and int(c[SEQ]) == seq:
                 return frame, dac, seq // 2
-
-
-def body_arrays(
-    coefficients,
-    table,
-    modal_state,
-    ring,
-    floor: float,
-    gain: float,
-    channel: int = -1,
-    *,
-    steal_frames: int,
-    mix_frames: int = 4096,
-    ears: int = 1,
-    gains: np.ndarray,
-    pan: float = math.nan,
-    rolls: dict | None = None,
-) -> dict:
-    """A body's arrays and sizes by :data:`BODY_FIELDS` name for :meth:`EngineState.add_body`,
-    from its bank ``coefficients``, power ``table``, slots' states
-    (:func:`synth.live.kernel.body_state`), pending ``ring``, omission ``floor``, output
-    ``channel`` (-1: all), steal fade (samples), the listener's complex ``gains`` (K,),
-    ``pan`` (NaN: unpanned) and rolling slots (None: none)."""
-    from synth.sound.modal_bank import transform_workspace
-
-    c = coefficients
-    fs = float(c.samplerate)
-    K = c.poles.size
-    V = modal_state["zr"].shape[0]
-    heard, heard_seq = heard_arrays(np.asarray(gains, dtype=complex))
-    voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
-    voice_slots[:, kernel.SL_OWNER] = -1
-    counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
-    counters[kernel.EARS] = ears
-    counters[kernel.STEAL_FRAMES] = steal_frames
-    tail = np.zeros(mix_frames + steal_frames)
-    scalars = np.zeros(N_SCALARS)
-    fields = [S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW]
-    scalars[fields] = (fs, floor, c.sigma_max, 1.0 / fs, gain, gain, pan, pan)
-    work = transform_workspace(K)
-    if rolls is None:
-        rolls = rolling_block.rolling_arrays(0, K, 2, 1)
-    return rolls | modal_state | dict(
-        table=np.ascontiguousarray(table),
-        poles=np.ascontiguousarray(c.poles, dtype=np.complex128), state=ring.state,
-        inject=ring.inject, first=ring.first, length=ring.length, amplitudes=ring.amplitudes,
-        response=ring.response, reference=ring.reference, counters=counters,
-        pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
-        step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
-        work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
-        pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
-        modes=K, slots=ring.capacity, contact=ring.max_contact,
-        pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
-        channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
-        voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
-        n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
-        heard=heard, heard_seq=heard_seq,
-        heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
-    )  # fmt: skip

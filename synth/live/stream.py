@@ -12,8 +12,8 @@ from synth.live import native
 
 
 def check_device(sd, device, channels: int, samplerate: int) -> dict:
-    """PortAudio's description of the output ``device`` (None: the default), checked to take
-    ``channels`` float32 channels at ``samplerate`` Hz (else SynthError)."""
+    """PortAudio's output ``device`` (None: default), checked for ``channels`` float32
+    channels at ``samplerate`` Hz (else SynthError)."""
     try:
         info = sd.query_devices(device, kind="output")
     except (ValueError, sd.PortAudioError) as exc:
@@ -36,9 +36,8 @@ def check_device(sd, device, channels: int, samplerate: int) -> dict:
 
 
 def open_stream(sd, state, callback: str, **settings):
-    """A PortAudio float32 output stream of ``settings`` whose callback mixes the engine of
-    ``state``: the compiled one with ``state``'s address as its user data, or the Python
-    fallback (``callback="python"``)."""
+    """A PortAudio float32 output stream mixing ``state``: the compiled callback on its
+    address, or the Python fallback (``callback="python"``)."""
     if callback == "python":
         return sd.OutputStream(callback=python_callback(state.ctl), dtype="float32", **settings)
     import cffi
@@ -53,15 +52,13 @@ def open_stream(sd, state, callback: str, **settings):
 
 #: Seconds the finaliser of a collected running engine waits for its stream to close.
 CLOSE_TIMEOUT = 2.0
-#: Streams whose server did not answer, with the arrays their callback may still read:
-#: kept for the life of the process (freeing them could crash the audio thread).
+#: Streams whose server did not answer and their arrays, kept (freeing could crash them).
 ABANDONED: list = []
 
 
 def close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
-    """Stop (or abort) and close ``stream`` on a helper thread within ``timeout`` s
-    (PortAudio can hang when the server is gone); if it did not, keep it and its ``state``
-    for the life of the process. Returns whether it closed."""
+    """Stop (or abort) and close ``stream`` on a helper thread within ``timeout`` s (PortAudio
+    can hang when the server is gone), else keep it for good. Returns whether it closed."""
 
     def close():
         try:
@@ -79,13 +76,13 @@ def close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
 
 
 def python_callback(ctl):
-    """The fallback stream callback, a Python function (holding the engine's arrays, not the
-    engine) that runs the compiled block (:func:`synth.live.native.run_block`)."""
+    """The fallback callback: Python (holding the arrays, not the engine) that runs the
+    compiled block."""
     time_info = np.zeros(3)  # adc, current and dac time, s
 
     def callback(outdata, frames, info, status):
         time_info[1] = info.currentTime
         time_info[2] = info.outputBufferDacTime
-        native.run_block(ctl, outdata, status._flags, time_info)
+        native.mix_engine(ctl, outdata, status._flags, time_info)
 
     return callback

@@ -1,25 +1,114 @@
-"""A handle on one sound of a live body: a hit, or a whole drop (see :class:`Voice`)."""
+"""A hit or a drop on a live body: its arguments checked before anything is computed
+(:class:`Trigger`), and its handle (:class:`Voice`)."""
 
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from synth.live.hits import MAX_GAIN, check_int, closed
+import numpy as np
+
+from synth import checks
+from synth.errors import ParameterError
+from synth.physics.scene import MAX_DROP_HEIGHT, MIN_DROP_HEIGHT, Ball, Contact, HollowBall, Plate
 
 if TYPE_CHECKING:
     from synth.live.body import Body
 
-#: Default voices a body rings at once (``max_voices``): each is a modal state of its own,
-#: so a body costs up to this many banks per block.
+#: Largest speed of a hit, m/s: far beyond any elastic range, a bound against nonsense.
+MAX_SPEED = 100.0
+#: Largest gain of a hit or a body (linear, +80 dB: a small panel heard afar needs ~70 dB).
+MAX_GAIN = 1e4
+#: Longest time ahead of the engine's clock a hit or drop may be scheduled, s.
+MAX_AHEAD = 60.0
+#: Relative accuracy of a hit's contact solution (a drop uses a scene's default).
+HIT_RTOL = 1e-6
+#: The contact law of a hit or a drop given none: Hertz, or the thin-shell law.
+DEFAULT_CONTACT = Contact()
+SHELL_CONTACT = Contact(law="shell")
+
+
+@dataclass(slots=True)
+class Trigger:
+    """A hit's or drop's ball, point (m), gain, law, gravity (m/s^2) and start (s), checked."""
+
+    ball: Ball
+    position: tuple[float, float]
+    gain: float
+    law: Contact
+    gravity: float
+    onset: float
+
+
+def trigger(plate: Plate, ball, position, gain, contact, gravity, onset) -> Trigger:
+    """The arguments a hit and a drop share, checked (``onset`` by the engine's clock, s)."""
+    return Trigger(
+        ball=check_ball(ball, plate),
+        position=plate.check_position(plate.centre if position is None else position, "position"),
+        gain=checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless"),
+        law=check_contact(contact, ball),
+        gravity=checks.positive("gravity", gravity, "m/s^2"),
+        onset=onset,
+    )
+
+
+def check_ball(ball, plate: Plate) -> Ball:
+    """``ball`` checked: a Ball whose diameter does not exceed the plate's smaller side."""
+    if not isinstance(ball, Ball):
+        raise ParameterError(f"ball={ball!r} must be a Ball")
+    if 2.0 * ball.radius > min(plate.length, plate.width):
+        raise ParameterError(
+            f"ball.radius={ball.radius!r} is too large for the plate: the ball's diameter "
+            f"must not exceed the plate's smaller side "
+            f"{min(plate.length, plate.width)!r} (metres)"
+        )
+    return ball
+
+
+def check_contact(contact, ball=None) -> Contact:
+    """``contact`` checked: None (the ball's own law) or a Contact on the plate's impedance."""
+    if contact is None:
+        return SHELL_CONTACT if isinstance(ball, HollowBall) else DEFAULT_CONTACT
+    if not isinstance(contact, Contact):
+        raise ParameterError(f"contact={contact!r} must be None or a Contact")
+    if contact.plate == "modal":
+        raise ParameterError(
+            f"contact.plate={contact.plate!r}: a live body solves its contacts with the "
+            f"plate's impedance (contact.plate='impedance', or 'auto', which a live body "
+            f"solves on the impedance plate: it carries no modes in the contact)"
+        )
+    return contact
+
+
+def check_height(height) -> float:
+    h = checks.positive_at_most("height", height, MAX_DROP_HEIGHT, "m")
+    if h < MIN_DROP_HEIGHT:
+        raise ParameterError(
+            f"height={height!r} must be >= {MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (m)"
+        )
+    return h
+
+
+def closed(name, value, lo, hi, unit) -> float:
+    """``value`` checked: a finite float in [lo, hi] (unit)."""
+    return checks.in_range(name, value, lo, hi, unit, lo_open=False, hi_open=False)
+
+
+def check_int(name, value, lo, hi, unit):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ParameterError(f"{name}={value!r} must be an integer in [{lo}, {hi}] ({unit})")
+    return int(value)
+
+
+#: Default voices a body rings at once (``max_voices``), each a modal state (a bank a block).
 MAX_VOICES = 8
-#: Length of the raised-cosine fade of a stolen voice, s: short, so the new voice is not
-#: masked for long, and smooth (zero slope at both ends), so it does not click.
+#: A stolen voice's raised-cosine fade, s: short (the new voice is not masked long) and of
+#: zero slope at both ends (no click).
 STEAL_FADE = 0.005
-#: Bounds of a :meth:`Voice.stop` fade, s.
+#: Bounds of a :meth:`Voice.stop` fade, s; largest priority (integers from 0, the default).
 MIN_STOP_FADE = 0.001
 MAX_STOP_FADE = 10.0
-#: Largest priority of a voice (priorities are integers from 0, the default, to this).
 MAX_PRIORITY = 255
 
 
@@ -40,10 +129,9 @@ def stop_frames(engine, fade: float | None) -> int:
 
 class Voice:
     """A handle on one sound of a body, a hit or a whole drop, usable from any thread: ``id``
-    (reported by :meth:`Engine.ended`), ``onsets`` (s), ``priority`` in [0, MAX_PRIORITY]
-    (when all slots ring, a new voice steals the lowest priority's, of those the oldest, or
-    is refused). It ends when every mode is below its share of ``floor_db`` relative to its
-    peak, or its stop fade ends."""
+    (:meth:`Engine.ended`), ``onsets`` (s), ``priority`` in [0, MAX_PRIORITY] (a new voice
+    steals the lowest priority's, of those the oldest, or is refused). It ends when every
+    mode is below its share of ``floor_db`` under its peak, or its stop fade ends."""
 
     __slots__ = ("body", "id", "onsets", "priority", "_records", "_gain")
 
@@ -79,8 +167,7 @@ class Voice:
 
     @property
     def gain(self) -> float:
-        """The voice's gain (linear, in [0, MAX_GAIN], default 1) on top of the hit's and the
-        body's; a change is ramped over the next block."""
+        """The voice's gain (linear, in [0, MAX_GAIN], default 1), ramped over the next block."""
         return self._gain
 
     @gain.setter
@@ -89,23 +176,21 @@ class Voice:
         self._control(gain=self._gain)
 
     def stop(self, fade: float | None = None) -> None:
-        """Fade the voice out from the next block over ``fade`` s (in [0.001, 10]; default the
-        engine's ``fade``), dropping its impacts not yet played; a second stop keeps the
-        first fade."""
+        """Fade out from the next block over ``fade`` s (in [0.001, 10]; default the engine's),
+        its impacts not yet played dropped; a second stop keeps the first fade."""
         self._control(stop=stop_frames(self.body._engine, fade))
 
 
 def stop_records(ears, records, vid) -> None:
-    """Drop voice ``vid`` at the ears that took it (``records``) before it plays: a hit
-    refused at one ear is refused at every ear."""
+    """Drop voice ``vid`` at the ears that took it: refused at one ear, at every ear."""
     for ear, r in zip(ears, records):
         ear._ring.control_voice(r, vid, stop=0)
 
 
 class VoiceLimit:
-    """The engine-wide voice cap (``Engine(max_total_voices=n)``, ``limit`` None: none), kept
-    on the threads that make voices: beyond it the lowest priority's, of those the oldest, is
-    stopped over ``STEAL_FADE`` (``stolen``) or the new one refused (``refused``)."""
+    """The engine-wide voice cap (``max_total_voices``; None: none), kept on the threads that
+    make voices: beyond it the lowest priority's, of those the oldest, fades out over
+    ``STEAL_FADE`` (``stolen``) or the new one is refused (``refused``)."""
 
     def __init__(self, limit: int | None):
         self.limit = limit
@@ -115,8 +200,7 @@ class VoiceLimit:
         self._lock = threading.Lock()  # between the threads that make voices
 
     def admit(self, vid: int, priority: int) -> bool:
-        """Make room for voice ``vid`` of ``priority`` (stealing one if need be), or refuse
-        it (False)."""
+        """Make room for voice ``vid`` of ``priority`` (stealing one), or refuse it (False)."""
         if self.limit is None:
             return True
         with self._lock:
