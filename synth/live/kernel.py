@@ -156,13 +156,15 @@ def _earliest(state, inject, form, end):
 
 
 @compiled(nogil=True)
-def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
-    """Turn at most ``limit`` PULSE slots (-1: all), earliest first, into READY ones as
+def transform_pulses(body, limit):
+    """Turn at most ``limit`` PULSE slots (-1: all) of ``body`` (a
+    :class:`~synth.live.state.BodyForm`), earliest first, into READY ones as
     :func:`synth.sound.modal_bank.impact_excitation` would (plate amplitudes; response and
     peak heard now). Returns the number transformed."""
+    ring, heard, transformed = body.ring, body.bank[3], body.transformed
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
-    pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
-    coefficients, samples, points, pulse = pulse_form
+    pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = body.transform
+    coefficients, samples, points, pulse = body.pulse_form
     inject = ring[1]
     count = 0
     while limit < 0 or count < limit:
@@ -479,17 +481,15 @@ def _take_tail(out, t0, n, tail, counters):
 
 
 @compiled(nogil=True)
-def mix_body(
-    out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
-    voice_form, events, limit,
-):  # fmt: skip
-    """Mix one body into ``out[0:n]`` (samples from ``t0``; ``vs``: a voice's scratch), the
-    arrays as :func:`synth.live.state.body_form` groups them; ``floor``: the omission floor
-    (fraction of a voice's peak); ``limit``: most pulses transformed (-1: all)."""
+def mix_body(out, vs, t0, n, body, events, limit):
+    """Mix ``body`` (a :class:`~synth.live.state.BodyForm`) into ``out[0:n]`` (samples from
+    ``t0``; ``vs``: a voice's scratch); ``limit``: most pulses transformed (-1: all)."""
+    bank, modal, ring, voice_form = body.bank, body.modal, body.ring, body.voice_form
+    counters, floor = body.counters, body.floor
     state, inject = ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
-    pulses = transform_pulses(ring, transform, pulse_form, transformed, bank[3], limit)
+    pulses = transform_pulses(body, limit)
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
@@ -539,8 +539,11 @@ def mix_body(
 
 
 @compiled(nogil=True)
-def silence(modal, ring, transformed, voice_form, counters, events):
-    """Stop every voice and drop every pending impact (a dropped pulse counts as taken)."""
+def silence(body, events):
+    """Stop every voice and drop every pending impact of ``body`` (a dropped pulse counts as
+    taken)."""
+    ring, voice_form, counters = body.ring, body.voice_form, body.counters
+    transformed = body.transformed
     state, voice = ring[0], ring[7]
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     ears = counters[EARS]

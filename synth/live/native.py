@@ -74,7 +74,6 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     ``mix`` (row 0: every channel's; panned: the first two at :func:`pan_gains`), its gain
     ramped; ``limit``: most pulses transformed (-1: all). Returns the pulses transformed."""
     counters = st.i64_at(record[st.B_COUNTERS], kernel.N_COUNTERS)
-    transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
     scalars = st.f64_at(record[st.B_SCALARS], st.N_SCALARS)
     R = record[st.B_SLOTS]
     state = st.i64_at(record[st.B_STATE], R)
@@ -103,11 +102,8 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
         out[s] = 0.0
     pulses = 0
     if waiting:
-        bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
-        pulses = kernel.mix_body(
-            out, scratch[1], t0, n, bank, modal, scalars[st.S_FLOOR], ring, counters, transform,
-            pulse_form, transformed, voice_form, st.event_ring(ctl), limit,
-        )  # fmt: skip
+        body = st.body_form(record)
+        pulses = kernel.mix_body(out, scratch[1], t0, n, body, st.event_ring(ctl), limit)
     if rolling:
         rolling = _call_roller(roller, ctl.ctypes.data, record.ctypes.data, out.ctypes.data, n) != 0
     if counters[kernel.BUSY_BLOCKS] != busy or rolling:
@@ -440,20 +436,15 @@ def mix_engine(ctl: np.ndarray, out: np.ndarray, flags: int = 0, time_info=None)
 @compiled(nogil=True)
 def transform_pending(record):
     """Transform a body's waiting pulses now, on the calling thread (before a stream starts)."""
-    bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
-    transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
     # -1 as mix_body's int64: a literal would compile transform_pulses twice
-    kernel.transform_pulses(ring, transform, pulse_form, transformed, bank[3], np.int64(-1))
+    kernel.transform_pulses(st.body_form(record), np.int64(-1))
 
 
 @compiled(nogil=True)
 def silence_body(ctl, record):
     """:func:`synth.live.kernel.silence` of a body and its rolling voices (``stop_all``)."""
-    bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
-    counters = st.i64_at(record[st.B_COUNTERS], kernel.N_COUNTERS)
-    transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
     rolling_block.silence_rolls(st.rolling_form(record)[0], st.event_ring(ctl))
-    kernel.silence(modal, ring, transformed, voice_form, counters, st.event_ring(ctl))
+    kernel.silence(st.body_form(record), st.event_ring(ctl))
 
 
 def warm_up(rolling: bool = False) -> None:

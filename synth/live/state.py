@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import mmap
 import time
+from collections import namedtuple
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -130,10 +131,19 @@ def i64_at(address, n):
     return numba.carray(pointer_to(address), n, np.int64)
 
 
+#: A body's arrays as one record for the kernels (:func:`body_form`): the bank (power table,
+#: poles, rate, heard gains and their sequence), the slots' modal states, the pending ring,
+#: the pulses' transform and PULSE form, the voices, its counters, pulses transformed and
+#: omission floor (a fraction of a voice's peak).
+BodyForm = namedtuple(
+    "BodyForm", "bank modal ring transform pulse_form voice_form counters transformed floor"
+)
+
+
 @compiled(nogil=True)
 def body_form(record):
-    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body` takes
-    them: bank, modal states, pending ring, transform, PULSE form, voices."""
+    """The :class:`BodyForm` of a body's ``record``: views of its arrays as the kernels take
+    them (no copy)."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
@@ -195,7 +205,10 @@ def body_form(record):
         numba.carray(pointer_to(record[B_SLOT_GAIN]), (V, 2), np.float64),
         f64_at(record[B_TAIL], record[B_TAIL_FRAMES]),
     )
-    return bank, modal, ring, transform, pulse_form, voice_form
+    counters = i64_at(record[B_COUNTERS], kernel.N_COUNTERS)
+    transformed = i64_at(record[B_TRANSFORMED], 1)
+    return BodyForm(bank, modal, ring, transform, pulse_form, voice_form, counters,
+                    transformed, scalars[S_FLOOR])  # fmt: skip
 
 
 @compiled(nogil=True, inline="always")
