@@ -33,9 +33,8 @@ _FROM_COUNTERS = dict(impacts_played=kernel.PLAYED, impacts_late=kernel.LATE,
 
 @dataclass(frozen=True)
 class EngineStats:
-    """Counters of an engine since it was made; docs/live.md ("Stats") states each. Callback
-    costs are fractions of a block, gaps in blocks, peaks in full scale 1, limiter figures in
-    dB since :meth:`Engine.reset_meter`, ``silent_for`` in s."""
+    """Counters of an engine since it was made (docs/live.md, "Stats"): callback costs in
+    blocks, peaks in full scale 1, limiter figures in dB since a reset, ``silent_for`` in s."""
 
     callbacks: int
     output_underflows: int

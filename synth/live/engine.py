@@ -72,7 +72,7 @@ class Engine(EngineBookkeeping):
         self._state = "idle"  # idle <-> running; failed for good
         self._failure: str | None = None
         self._drops_refused = 0
-        # removed bodies: ringing out (body, None), or vacated (body, the mixing's progress)
+        # removed bodies: ringing out [body, None], or vacated [body, the mixing's progress]
         self._retiring: list = []
         self._retired_counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
         self._retired_refused = 0  # impacts refused by removed bodies' rings
@@ -80,8 +80,7 @@ class Engine(EngineBookkeeping):
         self._too_close = 0
         self._next_voice_id = itertools.count(1).__next__  # atomic under the GIL
         self._events_lock = threading.Lock()  # between readers of ended()
-        # the fixed radiation grids of the plates whose listener moved (Body.move), kept
-        # while a body of the plate holds its own reference
+        # the fixed radiation grids of plates whose listener moved, while a body holds them
         self._grids: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
         self._grids_lock = threading.Lock()  # between the game's threads moving listeners
         self._too_large_for_grids: set = set()  # plates whose grids exceed their budget
@@ -302,8 +301,8 @@ class Engine(EngineBookkeeping):
         ctl[st.FADE_AT] = -1
         ctl[st.SEQ] = 0
         self._stream = stream
-        # closes the stream if the engine is collected while it runs (the stream holds
-        # nothing of the engine, only the addresses of the arrays the closer keeps)
+        # closes the stream if the engine is collected while it runs (the closer keeps the
+        # arrays whose addresses the stream holds)
         self._closer = weakref.finalize(self, close_stream, stream, self._native, CLOSE_TIMEOUT)
         self._state = "running"
         self._device_lost = None

@@ -49,7 +49,7 @@ class PendingRing:
         self.points = np.zeros(capacity, dtype=np.int64)
         self.pulse = np.zeros((capacity, kernel.N_PULSE_FIELDS))
         for a in (self.amplitudes, self.response, self.coefficients, self.samples):
-            a.fill(0.0)  # touch every page now, not at a hit
+            a.fill(0.0)  # map every page now, not at a hit
         self.capacity, self.max_contact, self.pulse_samples = capacity, max_contact, pulse_samples
         self.max_new = max_new
         self.pulses = 0  # pulses handed over so far (producers)
