@@ -297,7 +297,7 @@ def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
     body._roll_holds[r] = (envelope, coef_env, offsets)  # alive while the slot reads them
     state = roller.initial_state(speed, s0)
     fv = arrays["roll_floats"][r]
-    fv[rb.F_M : rb.F_HMAX + 1] = roller.kernel_constants()
+    fv[rb.F_M : rb.F_HMAX + 1] = roller.constants
     fv[rb.F_DX] = envelope.spacing
     fv[rb.F_LENGTH] = envelope.length
     fv[rb.F_H] = state.step

@@ -38,7 +38,7 @@ from synth.live.atomics import fence, pointer_to
 from synth.live.heard import HPI, HPR, SEQ_PUT
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
-from synth.physics.rolling_kernels import N_STATE, roll
+from synth.physics.rolling_kernels import N_STATE, Constants, roll
 from synth.sound.modal_bank.pulse import response_per_transform
 from synth.sound.rolling import drive_sample
 
@@ -318,10 +318,11 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
         for j in range(n):
             speeds[j] = speed
         env = numba.carray(pointer_to(cv[I_ENV]), (cv[I_ENV_N], 4), np.float64)
+        c = Constants(cf[F_M], cf[F_K], cf[F_N], cf[F_MU], cf[F_B], cf[F_BETA], cf[F_G], fs,
+                      cf[F_RTOL], cf[F_DREF], cf[F_HMAX])  # fmt: skip
         status, steps, _, _, h = roll(
-            y, cf[F_H], env, cf[F_DX], speeds[:n], cf[F_M], cf[F_K], cf[F_N], cf[F_MU],
-            cf[F_B], cf[F_BETA], cf[F_G], fs, cf[F_RTOL], cf[F_DREF], cf[F_HMAX],
-            MAX_STEPS_PER_SAMPLE * n, force[:n], buf[W_MINPEN, :n], buf[W_CENTRE, :n],
+            y, cf[F_H], env, cf[F_DX], speeds[:n], c, MAX_STEPS_PER_SAMPLE * n, force[:n],
+            buf[W_MINPEN, :n], buf[W_CENTRE, :n],
         )  # fmt: skip
         cf[F_H] = h
         cv[I_STEPS] += steps

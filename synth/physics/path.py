@@ -292,17 +292,15 @@ def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
     m_kinetic = ROLLING_ENERGY * m
     e_initial = roller.mechanical_energy(rolling_contact.RollingState(y, h))
     e_initial += m_kinetic * speed * speed
+    drive = _k.Drive(decel, block, x_end, m_kinetic, rolling.resistance * m * g)
     chunks, tallies, scratch = [], np.zeros(4), np.empty(block)
     v, n_done, flights, end = speed, 0, 0, "max-duration"
     while n_done < n_max:
         # the blocks in chunks of whole blocks: each chunk's arrays are written in place
-        size = min(n_max - n_done, block * CHUNK_BLOCKS)
-        chunk = np.empty((3, size))
+        chunk = np.empty((3, min(n_max - n_done, block * CHUNK_BLOCKS)))
         status, code, count, h, v, lost = _k.roll_blocks(
-            y, h, roller.setup.envelope.coefficients, roller.setup.envelope.spacing,
-            *roller.kernel_constants(), rolling_contact.MAX_STEPS_PER_SAMPLE, v, decel,
-            block, size, x_end, m_kinetic, rolling.resistance * m * g, chunk[0], chunk[1],
-            chunk[2], scratch, tallies,
+            y, h, envelope.coefficients, envelope.spacing, roller.constants, drive, v,
+            chunk.shape[1], chunk, scratch, tallies,
         )  # fmt: skip
         chunks.append(chunk[:, :count])
         n_done += count
