@@ -8,6 +8,7 @@ over :data:`HORIZON` s at the update's speed plus :data:`MARGIN` m); the audio t
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,9 +19,11 @@ from synth.live import kernel
 from synth.live import rolling_block as rb
 from synth.live.atomics import publish
 from synth.live.voice import check_gain, stop_frames
+from synth.physics.path import edge_distance
 from synth.physics.rolling import Roller
 from synth.physics.scene import Ball
-from synth.sound.rolling import POINTS_PER_WAVELENGTH, bending_wavenumber, path_excitation
+from synth.physics.surface import ContactEnvelope
+from synth.sound.rolling import path_excitation, table_step
 
 #: Fastest rolling speed a voice takes, m/s.
 MAX_ROLL_SPEED = 5.0
@@ -33,14 +36,6 @@ MARGIN = 2e-3
 #: Default rolling slots a body holds (``Engine(max_rolls=...)``): none, since a slot costs
 #: memory and an engine with slots compiles the rolling integrator (``synth bench cold``).
 MAX_ROLLS = 0
-
-
-def table_step(model) -> float:
-    """The mode-shape table's row spacing of a modal model, m: ``POINTS_PER_WAVELENGTH`` rows
-    per bending wavelength of its highest mode (as the offline rolling's)."""
-    w_max = float(np.max(np.abs(model.poles.imag))) if model.poles.size else 0.0
-    k_b = bending_wavenumber(model.modes.plate, w_max)
-    return 2.0 * math.pi / (POINTS_PER_WAVELENGTH * k_b) if k_b > 0.0 else 1.0
 
 
 def body_rolls(slots: int, model, frames: int) -> dict:
@@ -63,13 +58,7 @@ def _velocity(velocity) -> tuple[float, float, float]:
 
 def _reach(plate, x, y, ux, uy) -> float:
     """How far (m) the point ``(x, y)`` may move along ``(ux, uy)`` and stay on the plate."""
-    reach = math.inf
-    for p, u, size in ((x, ux, plate.length), (y, uy, plate.width)):
-        if u > 0.0:
-            reach = min(reach, (size - p) / u)
-        elif u < 0.0:
-            reach = min(reach, -p / u)
-    return max(reach, 0.0)
+    return max(edge_distance(plate, (x, y), (ux, uy)), 0.0)
 
 
 #: What ended a rolling voice, by ``I_ENDED``.
@@ -226,11 +215,23 @@ def stop_rolls(body, fade: float | None) -> None:
                 ints[r, rb.I_STOP] = frames
 
 
-def start_roll(
-    body, ball, position, velocity, *, envelope, start: float = 0.0, gain: float = 1.0,
-    contact: str = "hertz", rtol: float = 1e-6,
-) -> RollingVoice | None:  # fmt: skip
-    """:meth:`synth.live.Body.roll` (see there)."""
+@dataclass(frozen=True)
+class RollOptions:
+    """:meth:`synth.live.Body.roll`'s options: the ``envelope`` and the centre's ``start`` on it
+    (m), the voice's ``gain``, the ``contact`` law and ``rtol`` (as :func:`synth.physics.
+    rolling.roll`)."""
+
+    envelope: ContactEnvelope
+    start: float = 0.0
+    gain: float = 1.0
+    contact: str = "hertz"
+    rtol: float = 1e-6
+
+
+def start_roll(body, ball, position, velocity, **options) -> RollingVoice | None:
+    """:meth:`synth.live.Body.roll` (see there; ``options``: :class:`RollOptions`)."""
+    o = RollOptions(**options)
+    envelope = o.envelope
     engine = body._engine
     if body._removed:
         raise SynthError("this body was removed from its engine (Body.remove): add it again")
@@ -245,12 +246,12 @@ def start_roll(
         raise ParameterError(f"ball={ball!r} must be a Ball")
     x, y = body.plate.check_position(position, "position")
     speed, ux, uy = _velocity(velocity)
-    g = check_gain(gain)
-    fs = engine.samplerate
+    g = check_gain(o.gain)
     roller = Roller.over(
-        ball, body.plate, envelope, samplerate=fs, origin=(0.0, 0.0), contact=contact, rtol=rtol
-    )
-    s0 = checks.in_range("start", start, 0.0, envelope.length, "metres", lo_open=False)
+        ball, body.plate, envelope, samplerate=engine.samplerate, origin=(0.0, 0.0),
+        contact=o.contact, rtol=o.rtol,
+    )  # fmt: skip
+    s0 = checks.in_range("start", o.start, 0.0, envelope.length, "metres", lo_open=False)
     with body._roll_lock:  # no update of an ended voice of the slot writes into it meanwhile
         slots = _take_slots(body)
         if slots is None:

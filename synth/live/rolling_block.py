@@ -38,7 +38,7 @@ from synth.live.atomics import fence, pointer_to
 from synth.live.heard import HPI, HPR, SEQ_PUT
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
-from synth.physics.rolling_kernels import N_STATE, Constants, roll
+from synth.physics.rolling_kernels import N_STATE, Constants, roll, touching_points
 from synth.sound.modal_bank.pulse import response_per_transform
 from synth.sound.rolling import drive_sample
 
@@ -262,23 +262,16 @@ def _take_update(iv, fv, y):
 
 
 @compiled(nogil=True, inline="always")
-def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
-    """The touching point's distance along the segment (m) mid-period, into the centre's row:
-    the centre plus the envelope's contact offset (as
-    :meth:`synth.physics.rolling.Roller.contact_coordinates`), less the anchor."""
-    centre = buf[W_CENTRE]
-    last = offsets.shape[0] - 1
+def _contact_coordinates(centre, speed, fs, offsets, dx, anchor):
+    """The touching point's distance along the segment (m) mid-period, over the centre's path
+    coordinates ``centre`` (in place): as :meth:`synth.physics.rolling.Roller.contact_coordinates`,
+    less the ``anchor`` (m)."""
     half = 0.5 * speed / fs
-    for j in range(n):
-        c = centre[j] + half
-        u = c / dx
-        i = int(math.floor(u))
-        if i < 0:
-            i = 0
-        if i > last - 1:
-            i = last - 1
-        t = u - i
-        centre[j] = c + offsets[i] + t * (offsets[i + 1] - offsets[i]) - anchor
+    for j in range(centre.shape[0]):
+        centre[j] += half
+    touching_points(centre, offsets, dx, centre)
+    for j in range(centre.shape[0]):
+        centre[j] -= anchor
 
 
 @compiled(nogil=True, inline="always")
@@ -334,7 +327,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
                     buf[W_CENTRE, j] = y[rolling_kernels.S]
             speed = 0.0
     offsets = numba.carray(pointer_to(cv[I_OFF]), cv[I_OFF_N], np.float64)
-    _contact_coordinates(buf, n, speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
+    _contact_coordinates(buf[W_CENTRE, :n], speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
     cf[F_PREVIOUS] = force[n - 1]
     cf[F_SPEED] = speed
     cv[I_FRAMES] += n
