@@ -56,11 +56,6 @@ def _velocity(velocity) -> tuple[float, float, float]:
     return (speed, vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0, 0.0)
 
 
-def _reach(plate, x, y, ux, uy) -> float:
-    """How far (m) the point ``(x, y)`` may move along ``(ux, uy)`` and stay on the plate."""
-    return max(edge_distance(plate, (x, y), (ux, uy)), 0.0)
-
-
 #: What ended a rolling voice, by ``I_ENDED``.
 ENDED_BY = {rb.END_STOPPED: "stop", rb.END_SURFACE: "surface", rb.END_FAILED: "failed"}
 
@@ -159,8 +154,8 @@ class RollingVoice:
         plate = body.plate
         step = body._roll_step
         rows_cap = body._rolls["roll_rows"]
-        back = min(MARGIN, _reach(plate, x, y, -ux, -uy))
-        ahead = min(speed * HORIZON + MARGIN, _reach(plate, x, y, ux, uy))
+        back = min(MARGIN, max(edge_distance(plate, (x, y), (-ux, -uy)), 0.0))
+        ahead = min(speed * HORIZON + MARGIN, max(edge_distance(plate, (x, y), (ux, uy)), 0.0))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
         if not self._holds(0):  # ended: its slots may be another voice's
             return
@@ -174,7 +169,10 @@ class RollingVoice:
                     ear._model, origin=(x, y), direction=(ux, uy), start=-back, stop=ahead,
                     step=step,
                 )  # fmt: skip
-            _write_back(ear._rolls, r, b, tables[key], speed)
+            table, rolls = tables[key], ear._rolls
+            rows = table.excitation.shape[0]
+            rolls["roll_tables"][r, b, :rows] = table.excitation
+            rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
         old = rb.exchange(contact, rb.I_MIDDLE, b | rb.FRESH)
         contact[rb.I_BACK] = old & 3
 
@@ -185,14 +183,6 @@ class RollingVoice:
         with self._lock:
             if self.playing and self._holds(0) and self._ints[rb.I_STOP] < 0:
                 self._ints[rb.I_STOP] = frames
-
-
-def _write_back(rolls: dict, r: int, b: int, table, speed: float) -> None:
-    """Write ``table`` (a :class:`synth.sound.rolling.PathExcitation`) at ``speed`` (m/s) into
-    buffer ``b`` of slot ``r`` of an ear's rolling arrays."""
-    rows = table.excitation.shape[0]
-    rolls["roll_tables"][r, b, :rows] = table.excitation
-    rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
 
 
 def rolls(body) -> bool:

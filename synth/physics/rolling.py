@@ -23,11 +23,8 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import rolling_kernels as _k
 from synth.physics.contact_law import ContactLaw, contact_parameters
-from synth.physics.rolling_results import EnergyBalance as EnergyBalance
-from synth.physics.rolling_results import RollingContact as RollingContact
-from synth.physics.rolling_results import RollingState, read_only
 from synth.physics.scene import MAX_GRAVITY, Ball, Plate, check_type
-from synth.physics.surface import ContactEnvelope, envelope_at, samples
+from synth.physics.surface import ContactEnvelope, envelope_at, read_only, samples
 
 #: Most integration steps per sample period before the solver gives up.
 MAX_STEPS_PER_SAMPLE = _k.MAX_STEPS_PER_SAMPLE
@@ -41,6 +38,113 @@ _MESSAGES = {
     _k.MAX_STEPS: "The step limit was reached before the end.",
     _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
 }
+
+
+@dataclass(frozen=True)
+class EnergyBalance:
+    """The ball's and its contact's mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) /
+    (n+1)`` at the start and the end (J, potential from the plate's plane) and where the
+    difference went (J): the contact's loss ``Int (F - K delta^n) delta' dt``, into the plate
+    ``Int beta F^2 dt``, the horizontal drive's work ``Int F e'(s) v dt`` and ``Int |F e'(s) v|
+    dt``. ``residual``: ``|final - initial + loss_work + plate_energy - drive_work|`` (0 for the
+    exact solution) over the largest of ``gross_drive_work``, ``loss_work + plate_energy``,
+    ``|final - initial|`` and ``m g delta_static``."""
+
+    initial: float
+    final: float
+    loss_work: float
+    plate_energy: float
+    drive_work: float
+    gross_drive_work: float
+    residual: float
+
+
+@dataclass(frozen=True, eq=False)
+class RollingState:
+    """Where a rolling ended, to continue from (:func:`roll`'s ``state``), or a ball above the
+    surface (:meth:`at`): ``vector`` the integrator's read-only state (SI;
+    :mod:`synth.physics.rolling_kernels`' components), ``step`` its next step, s (None: chosen)."""
+
+    vector: np.ndarray
+    step: float | None
+
+    @classmethod
+    def at(
+        cls,
+        envelope: ContactEnvelope,
+        *,
+        path_position: float,
+        height: float,
+        vertical_velocity: float,
+    ) -> RollingState:
+        """The ball over ``path_position`` (m), its lowest point ``height`` (m) above the envelope
+        (negative: pressed in), moving up at ``vertical_velocity`` (m/s), the plate at rest."""
+        check_type("envelope", envelope, ContactEnvelope)
+        s = checks.in_range(
+            "path_position", path_position, 0.0, envelope.length, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        y = np.zeros(_k.N_STATE)
+        e, _, _ = envelope_at(envelope.coefficients, envelope.spacing, s)
+        y[_k.Z] = e + checks.real("height", height, "metres")
+        y[_k.VY] = checks.real("vertical_velocity", vertical_velocity, "m/s")
+        y[_k.S] = s
+        return cls(read_only(y), None)
+
+    @property
+    def path_position(self) -> float:
+        """The ball's centre on the path, m."""
+        return float(self.vector[_k.S])
+
+    @property
+    def vertical_velocity(self) -> float:
+        """The ball's vertical velocity, m/s (upward)."""
+        return float(self.vector[_k.VY])
+
+
+@dataclass(frozen=True, eq=False)
+class RollingContact:
+    """A rolling ball's contact, sampled at ``samplerate`` (Hz; sample ``j`` covers ``[j, j + 1) /
+    samplerate`` s). Per sample period (N,): the mean ``force`` on the plate (N), the centre's
+    ``path_position`` mid-period (m), the touching point's ``contact_coordinate`` on the path
+    (m) and ``contact_point`` (N, 2) on the plate (m), the least ``min_penetration`` at the
+    steps' ends (m; <= 0: off the plate), the ``speed`` (m/s). ``flights``: losses of contact;
+    ``admittance`` ``beta`` (m/(N s)); ``static_penetration`` ``(m g / K)^(1/n)`` (m, the error
+    control's scale); ``status`` 0 or a failure (``message``); ``final_state`` to continue from."""
+
+    samplerate: int
+    force: np.ndarray
+    path_position: np.ndarray
+    contact_coordinate: np.ndarray
+    contact_point: np.ndarray
+    min_penetration: np.ndarray
+    flights: int
+    energy: EnergyBalance
+    law: ContactLaw
+    admittance: float
+    speed: np.ndarray
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    mass: float
+    static_penetration: float
+    success: bool
+    status: int
+    message: str
+    n_steps: int
+    n_rejected: int
+    final_state: RollingState
+
+    @property
+    def contact_lost(self) -> np.ndarray:
+        """Samples in which the ball was seen off the plate (bool, (N,))."""
+        return self.min_penetration <= 0.0
+
+    @property
+    def mean_drag(self) -> float:
+        """Mean horizontal force the contact opposes to the ball's motion, N: the drive's
+        work per metre of path (NaN if the ball did not move)."""
+        distance = float(np.sum(self.speed)) / self.samplerate
+        return self.energy.drive_work / distance if distance > 0.0 else math.nan
 
 
 def _direction(direction) -> tuple[float, float]:
@@ -68,14 +172,10 @@ def roll(
 
     ``speed``: the centre's horizontal speed, m/s (>= 0), one for ``duration`` (s, at most
     :data:`MAX_DURATION`) or one per sample period of ``samplerate`` (Hz). ``origin``: the path's
-    coordinate 0 on the plate, m from its corner. ``start``: the centre's path coordinate at time 0,
-    m (default 0); or ``state``: an earlier rolling's ``final_state`` (consecutive calls give the
-    bits of one call) or a ball above the surface (:meth:`RollingState.at`). ``options``: those of
-    :meth:`Roller.over`.
-
-    Without ``state`` the ball starts as a ball rolled there slowly would be: pressed with ``m (g
-    + v^2 e''(s0))`` (the weight and the centripetal force), its penetration steady; just
-    touching if that force is negative."""
+    coordinate 0 on the plate, m from its corner. ``start``: the centre's path coordinate at time
+    0, m (default 0: pressed with ``m (g + v^2 e''(s0))``, its penetration steady, as a ball rolled
+    there slowly); or ``state``: an earlier rolling's ``final_state`` (consecutive calls give the
+    bits of one call) or :meth:`RollingState.at`. ``options``: :meth:`Roller.over`'s."""
     roller = Roller.over(ball, plate, envelope, samplerate=samplerate, origin=origin, **options)
     return roller.roll(speed, duration=duration, start=start, state=state)
 
@@ -202,10 +302,10 @@ class Roller:
         return RollingState(read_only(y), float(h))
 
     def integrator_start(self, speed: float, start: float, state: RollingState | None):
-        """The state vector (new) and first step (s) of a rolling from ``state`` or at ``start``
-        (m) and ``speed`` (m/s). Without ``state``: as :func:`roll` says, pressed with ``F0 = m
-        (g + v^2 e''(s0))``, its penetration ``(F0 / K)^(1/n)`` steady (the plate moving at
-        ``-beta F0``), or just touching if ``F0 <= 0``."""
+        """The state vector (new) and first step (s) from ``state`` or at ``start`` (m) and
+        ``speed`` (m/s): pressed with ``F0 = m (g + v^2 e''(s0))`` (:func:`roll`), its
+        penetration ``(F0 / K)^(1/n)`` steady (the plate at ``-beta F0``), touching if ``F0 <=
+        0``."""
         m, g, beta = self.mass, self.gravity, self.admittance
         first = min(0.1 * math.sqrt(self.static_penetration / g), 1.0 / self.samplerate)
         if state is not None:
@@ -332,9 +432,8 @@ def _speeds(speed, duration, fs) -> np.ndarray:
 
 @dataclass(frozen=True)
 class LossOfContactSpeed:
-    """The speed at which a rolling ball starts to leave the surface: ``speed`` the middle of
-    the bracket ``low`` (stayed on) to ``high`` (left), m/s; ``rolls`` rollings solved;
-    ``success`` if the bracket was found and narrowed to the tolerance."""
+    """The speed (m/s) at which a rolling ball starts to leave the surface, the middle of the
+    bracket ``low`` (stayed on) to ``high`` (left); ``rolls`` solved; ``success`` if narrowed."""
 
     speed: float
     low: float
@@ -345,25 +444,14 @@ class LossOfContactSpeed:
 
 
 def loss_of_contact_speed(
-    ball: Ball,
-    plate: Plate,
-    envelope: ContactEnvelope,
-    *,
-    start: float,
-    stop: float,
-    low: float,
-    high: float,
-    samplerate: int,
-    origin,
-    direction=(1.0, 0.0),
-    tolerance: float = 1e-3,
-    **options,
+    roller: Roller, *, start: float, stop: float, low: float, high: float, tolerance: float = 1e-3
 ) -> LossOfContactSpeed:
-    """The lowest speed (m/s) at which ``ball`` rolling from ``start`` to ``stop`` (path
-    coordinates, m) leaves the surface (a step's end off it), by bisection between ``low``
-    (stays on) and ``high`` (leaves) to the relative ``tolerance`` in (0, 0.1], each speed a
-    :func:`roll` with ``options``: the thesis' question (section 6.2). On a random surface
-    the change may happen more than once; the bracket then holds one of them."""
+    """The lowest speed (m/s) at which the ball of ``roller`` (:meth:`Roller.over`) rolling from
+    ``start`` to ``stop`` (path coordinates, m) leaves the surface (a step's end off it), by
+    bisection between ``low`` (stays on) and ``high`` (leaves) to the relative ``tolerance`` in
+    (0, 0.1], each speed a :meth:`Roller.roll`: the thesis' question (section 6.2). On a random
+    surface the change may happen more than once; the bracket then holds one of them."""
+    check_type("roller", roller, Roller)
     v_lo = checks.positive("low", low, "m/s")
     v_hi = checks.positive("high", high, "m/s")
     if not v_hi > v_lo:
@@ -379,11 +467,8 @@ def loss_of_contact_speed(
         nonlocal rolls
         rolls += 1
         # the last sample ends at or before ``stop``
-        duration = math.floor((s1 - s0) / v * samplerate) / samplerate
-        r = roll(
-            ball, plate, envelope, speed=v, duration=duration, samplerate=samplerate,
-            origin=origin, direction=direction, start=s0, **options,
-        )  # fmt: skip
+        fs = roller.samplerate
+        r = roller.roll(v, duration=math.floor((s1 - s0) / v * fs) / fs, start=s0)
         if not r.success:
             raise _RollFailed(f"at speed {v!r} m/s: {r.message}")
         return bool(np.any(r.contact_lost))

@@ -78,8 +78,8 @@ A61, A62, A63, A64, A65 = (
     9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
 )  # fmt: skip
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
-#: An error (relative to the tolerance) below which the step grows by the largest factor,
-#: 5: below ``(0.9 / 5)^5 = 1.9e-4``.
+#: An error (over the tolerance) below which the step grows by the largest factor, 5
+#: (``(0.9 / 5)^5 = 1.9e-4``).
 TINY_ERROR = 1e-4
 E1, E3, E4, E5, E6, E7 = (
     71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
@@ -115,7 +115,7 @@ def rates(z, vy, s, env, dx, v, c):  # pragma: no cover - compiled
 
 @compiled(inline="always")
 def step5(y, h, k1, k3, k4, k5, k6):  # pragma: no cover - compiled
-    """One component's fifth-order solution ``y + h sum_i B_i k_i``."""
+    """A component's fifth-order solution ``y + h sum_i B_i k_i``."""
     return y + h * (B1 * k1 + B3 * k3 + B4 * k4 + B5 * k5 + B6 * k6)
 
 
@@ -127,11 +127,10 @@ def error4(h, k1, k3, k4, k5, k6, k7):  # pragma: no cover - compiled
 
 @compiled(inline="always")
 def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - compiled
-    """The step's error relative to the tolerance (``err_z``, ``err_v`` over ``sc_z``, ``sc_v``) and
-    the next step (s) after ``hh`` (s): ``hh min(5, 0.9 err^-0.2)`` if accepted, ``hh max(0.2,
-    0.9 err^-0.2)`` if not (Hairer, Norsett & Wanner II.4). An error so small that the next step
-    is the largest allowed, ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``), is found with products
-    alone and returned as 0."""
+    """The step's error over the tolerance (``err_z``, ``err_v`` over ``sc_z``, ``sc_v``) and the
+    next step (s) after ``hh``: ``hh min(5, 0.9 err^-0.2)`` if accepted, ``hh max(0.2, 0.9
+    err^-0.2)`` if not (Hairer, Norsett & Wanner II.4); an error small enough for the largest
+    step ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``) is found by products alone, returned 0."""
     r = hh * grow
     reach = max(r * r * r * r * r, TINY_ERROR)
     if abs(err_z) <= reach * sc_z and abs(err_v) <= reach * sc_v:
@@ -144,10 +143,9 @@ def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - co
 
 @compiled()
 def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
-    """The first time in ``(a, b]`` (s) where the cubic ``P(t) = p0 + p1 t + p2 t^2 + p3 t^3`` (the
-    penetration along a flight, m) reaches 0, given ``P(a) < 0``, within ``tol`` (s) before it;
-    -1.0 if none. ``P`` is monotone between its critical points, so the first of them (or ``b``)
-    where ``P >= 0`` brackets the root, which bisection narrows."""
+    """The first time in ``(a, b]`` (s) where the penetration ``P(t) = p0 + p1 t + p2 t^2 + p3 t^3``
+    (m) reaches 0, given ``P(a) < 0``, within ``tol`` (s) before it; -1.0 if none: the first
+    critical point (or ``b``) where ``P >= 0`` brackets it, bisection narrows it."""
     # the critical points: roots of 3 p3 t^2 + 2 p2 t + p1
     c1 = c2 = b
     qa, qb = 3.0 * p3, 2.0 * p2
@@ -182,11 +180,11 @@ def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
 
 @compiled()
 def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
-    """The ball's parabolic flight from ``s`` (m), height ``z`` (m), vertical speed ``vy`` (m/s) at
-    ``v`` (m/s) under ``g`` (m/s^2): the time (s) it flies, to the first contact (``tol`` s or
-    less before it) or at most ``span`` (s), and whether it lands. Over each spline piece the
-    penetration is a cubic in ``t``; a piece where it stays below its chord's larger end plus
-    ``max |P''| L^2 / 8`` has no contact, on the others :func:`first_contact` finds the root."""
+    """The parabolic flight from ``s`` (m), height ``z`` (m), vertical speed ``vy`` (m/s) at ``v``
+    (m/s) under ``g`` (m/s^2): how long (s) it flies, to the first contact (``tol`` s before) or
+    at most ``span`` (s), and whether it lands. Over each spline piece the penetration is a
+    cubic in ``t``, without contact where below its chord's larger end plus ``max |P''| L^2 /
+    8``, else :func:`first_contact` finds the root."""
     n = env.shape[0]
     i = spline_piece(n, dx, s)
     a = 0.0
@@ -281,32 +279,27 @@ def roll(
                 return STEP_TOO_SMALL, steps, rejected, flights, h
             # the stages (s' = v: its increments are those of the other components' form)
             z2, v2, u2, i2, l2, p2, d2, g2, _ = rates(
-                z + hh * A21 * z1, vy + hh * A21 * v1, s + hh * A21 * v,
-                env, dx, v, c,
-            )  # fmt: skip
+                z + hh * A21 * z1, vy + hh * A21 * v1, s + hh * A21 * v, env, dx, v, c
+            )
             z3, v3, u3, i3, l3, p3, d3, g3, _ = rates(
                 z + hh * (A31 * z1 + A32 * z2),
                 vy + hh * (A31 * v1 + A32 * v2),
-                s + hh * (A31 * v + A32 * v),
-                env, dx, v, c,
+                s + hh * (A31 * v + A32 * v), env, dx, v, c,
             )  # fmt: skip
             z4, v4, u4, i4, l4, p4, d4, g4, _ = rates(
                 z + hh * (A41 * z1 + A42 * z2 + A43 * z3),
                 vy + hh * (A41 * v1 + A42 * v2 + A43 * v3),
-                s + hh * (A41 * v + A42 * v + A43 * v),
-                env, dx, v, c,
+                s + hh * (A41 * v + A42 * v + A43 * v), env, dx, v, c,
             )  # fmt: skip
             z5, v5, u5, i5, l5, p5, d5, g5, _ = rates(
                 z + hh * (A51 * z1 + A52 * z2 + A53 * z3 + A54 * z4),
                 vy + hh * (A51 * v1 + A52 * v2 + A53 * v3 + A54 * v4),
-                s + hh * (A51 * v + A52 * v + A53 * v + A54 * v),
-                env, dx, v, c,
+                s + hh * (A51 * v + A52 * v + A53 * v + A54 * v), env, dx, v, c,
             )  # fmt: skip
             z6, v6, u6, i6, l6, p6, d6, g6, _ = rates(
                 z + hh * (A61 * z1 + A62 * z2 + A63 * z3 + A64 * z4 + A65 * z5),
                 vy + hh * (A61 * v1 + A62 * v2 + A63 * v3 + A64 * v4 + A65 * v5),
-                s + hh * (A61 * v + A62 * v + A63 * v + A64 * v + A65 * v),
-                env, dx, v, c,
+                s + hh * (A61 * v + A62 * v + A63 * v + A64 * v + A65 * v), env, dx, v, c,
             )  # fmt: skip
             z_new = step5(z, hh, z1, z3, z4, z5, z6)
             vy_new = step5(vy, hh, v1, v3, v4, v5, v6)
@@ -357,19 +350,17 @@ LEFT_PLATE = 2
 @compiled()
 def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
     """A bound (m) of the centre's travel over the first ``count`` of the monotone ``planned``
-    speeds (m/s) from ``x`` (m), with far more than the float sums' rounding: a block it keeps
-    short of the edge needs no cumulative sum."""
+    speeds (m/s) from ``x`` (m), far above the sums' rounding: within it no cumulative sum."""
     travel = count * max(planned[0], planned[count - 1]) / samplerate
     return travel + 1e-9 * (travel + abs(x))
 
 
 @compiled()
 def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cover - compiled
-    """The speeds (m/s) of the next block of at most ``count`` periods into ``out``, from ``v``
-    (m/s) under ``decel`` (m/s^2), for a centre at ``x`` (m): how many, and how the block ends,
-    cut at the stop (:data:`STOPPED`) or where the centre passes ``x_end`` (m,
-    :data:`LEFT_PLATE`), else :data:`RUNNING`. The speeds fall and the positions rise, so each
-    cut is the first period past it."""
+    """The speeds (m/s) of the next block of at most ``count`` periods into ``out`` from ``v`` (m/s)
+    under ``decel`` (m/s^2), the centre at ``x`` (m): how many, and how it ends, cut at the stop
+    (:data:`STOPPED`) or where the centre passes ``x_end`` (m, :data:`LEFT_PLATE`), else
+    :data:`RUNNING`."""
     end = RUNNING
     for k in range(count):
         out[k] = v - decel * (k + 0.5) / samplerate
@@ -444,8 +435,8 @@ def roll_blocks(
 
 @compiled()
 def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
-    """The touching points' path coordinates (m) of the centres ``centres`` (m) into ``out``: each
-    plus the envelope's ``offsets`` (m, every ``spacing`` m) interpolated linearly, held beyond
+    """The touching points' path coordinates (m) of ``centres`` (m) into ``out`` (may be
+    ``centres``): each plus the ``offsets`` (m, every ``spacing`` m) interpolated, held beyond
     the ends; numpy's ``interp`` to the bit."""
     last = offsets.shape[0] - 1
     for k in range(centres.shape[0]):
@@ -471,8 +462,8 @@ def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compi
 
 @compiled()
 def node_reach(offsets, spacing, first, last):  # pragma: no cover - compiled
-    """The least and the largest touching point ``i spacing + offsets[i]`` (m) of the
-    envelope's samples ``first <= i <= last`` (``inf, -inf`` if none)."""
+    """The least and largest touching point ``i spacing + offsets[i]`` (m), ``first <= i <= last``
+    (``inf, -inf`` if none)."""
     lo, hi = math.inf, -math.inf
     for i in range(max(first, 0), min(last, offsets.shape[0] - 1) + 1):
         x = i * spacing + offsets[i]

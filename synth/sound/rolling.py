@@ -350,6 +350,31 @@ def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - co
     return s0, s1, s2, s3
 
 
+@compiled(inline="always")
+def _ring_four_free(er, ei, wr, wi):  # pragma: no cover - compiled
+    """:func:`_ring_four` without force (the ball in flight; the same bits)."""
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(er.shape[0]):
+        e_r, e_i = er[k], ei[k]
+        xr, xi = wr[k], wi[k]
+        s0 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s1 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s2 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s3 += xr
+        wr[k] = e_r * xr - e_i * xi
+        wi[k] = e_r * xi + e_i * xr
+    return s0, s1, s2, s3
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
@@ -359,7 +384,8 @@ def _drive(
     in place; ``sum_k Re w_k`` into ``out``): ``w_k <- e_k w_k + g_k b_k F``, ``e_k = er + i
     ei``, ``g_k = l_k h_k = gr + i gi``, ``b_k`` interpolated in ``table``; ``previous`` the
     force before (N), ``direct`` the direct term summed per row. Per table interval its rows'
-    gains are worked out once and four samples rung per pass (each with a single pass' bits)."""
+    gains are worked out once and four samples rung per pass (without the drive where the four
+    have no force), each with a single pass' bits."""
     K = er.shape[0]
     rows = table.shape[0]
     n = force.shape[0]
@@ -382,7 +408,9 @@ def _drive(
             fb[m] = t_m * force[j + m]
             ts[m] = t_m
             m += 1
-        if m == 4:
+        if m == 4 and force[j] == force[j + 1] == force[j + 2] == force[j + 3] == 0.0:
+            out[j], out[j + 1], out[j + 2], out[j + 3] = _ring_four_free(er, ei, wr, wi)
+        elif m == 4:
             out[j], out[j + 1], out[j + 2], out[j + 3] = _ring_four(
                 fa, fb, er, ei, ar, ai, br, bi, wr, wi
             )
