@@ -91,10 +91,12 @@ def contact_loss_rows() -> list[dict]:
         )  # fmt: skip
         env = surface.contact_envelope(profile, radius)
         closed = math.sqrt(g * (rho + radius))
+        roller = rolling.Roller.over(
+            ball, plate, env, samplerate=SAMPLERATE, origin=(0.1, 0.3), admittance=0.0
+        )
         found = rolling.loss_of_contact_speed(
-            ball, plate, env, start=WAVELENGTH, stop=4.5 * WAVELENGTH, low=0.9 * closed,
-            high=1.05 * closed, samplerate=SAMPLERATE, origin=(0.1, 0.3), admittance=0.0,
-        )  # fmt: skip
+            roller, start=WAVELENGTH, stop=4.5 * WAVELENGTH, low=0.9 * closed, high=1.05 * closed
+        )
         rows.append(
             dict(
                 diameter_mm=2e3 * radius,

@@ -53,10 +53,12 @@ def test_contact_loss_speed_matches_closed_form(pair, radius):
     env = sinusoid_envelope(radius)
     vc = closed_form_loss_speed(radius)
     # from a trough (where the start is quasi-static), over three crests
+    roller = rolling.Roller.over(
+        ball, pair[1], env, samplerate=SAMPLERATE, origin=(0.1, 0.3), admittance=0.0
+    )
     found = rolling.loss_of_contact_speed(
-        ball, pair[1], env, start=WAVELENGTH, stop=4.5 * WAVELENGTH, low=0.9 * vc,
-        high=1.05 * vc, samplerate=SAMPLERATE, origin=(0.1, 0.3), admittance=0.0,
-    )  # fmt: skip
+        roller, start=WAVELENGTH, stop=4.5 * WAVELENGTH, low=0.9 * vc, high=1.05 * vc
+    )
     assert found.success, found.message
     assert found.high - found.low <= 1e-3 * found.high
     assert abs(found.speed / vc - 1.0) < 0.01
@@ -71,17 +73,16 @@ def test_loss_of_contact_speed_reports_a_bad_bracket(pair):
     ball, plate = pair
     env = sinusoid_envelope(ball.radius)
     vc = closed_form_loss_speed(ball.radius)
-    kw = dict(start=WAVELENGTH, stop=3 * WAVELENGTH, samplerate=SAMPLERATE, origin=(0.1, 0.3))
-    low_too_high = rolling.loss_of_contact_speed(
-        ball, plate, env, low=1.2 * vc, high=1.5 * vc, **kw
-    )
+    roller = rolling.Roller.over(ball, plate, env, samplerate=SAMPLERATE, origin=(0.1, 0.3))
+    kw = dict(start=WAVELENGTH, stop=3 * WAVELENGTH)
+    low_too_high = rolling.loss_of_contact_speed(roller, low=1.2 * vc, high=1.5 * vc, **kw)
     assert not low_too_high.success and "already leaves" in low_too_high.message
-    high_too_low = rolling.loss_of_contact_speed(
-        ball, plate, env, low=0.5 * vc, high=0.6 * vc, **kw
-    )
+    high_too_low = rolling.loss_of_contact_speed(roller, low=0.5 * vc, high=0.6 * vc, **kw)
     assert not high_too_low.success and "stays on" in high_too_low.message
     with pytest.raises(ParameterError, match="high"):
-        rolling.loss_of_contact_speed(ball, plate, env, low=1.0, high=0.5, **kw)
+        rolling.loss_of_contact_speed(roller, low=1.0, high=0.5, **kw)
+    with pytest.raises(ParameterError, match="roller"):
+        rolling.loss_of_contact_speed(ball, low=0.5, high=1.0, **kw)
 
 
 def test_envelope_curvature_over_crest_and_trough():

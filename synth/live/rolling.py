@@ -8,6 +8,7 @@ over :data:`HORIZON` s at the update's speed plus :data:`MARGIN` m); the audio t
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,9 +19,11 @@ from synth.live import kernel
 from synth.live import rolling_block as rb
 from synth.live.atomics import publish
 from synth.live.voice import check_gain, stop_frames
+from synth.physics.path import edge_distance
 from synth.physics.rolling import Roller
 from synth.physics.scene import Ball
-from synth.sound.rolling import POINTS_PER_WAVELENGTH, bending_wavenumber, path_excitation
+from synth.physics.surface import ContactEnvelope
+from synth.sound.rolling import path_excitation, table_step
 
 #: Fastest rolling speed a voice takes, m/s.
 MAX_ROLL_SPEED = 5.0
@@ -33,14 +36,6 @@ MARGIN = 2e-3
 #: Default rolling slots a body holds (``Engine(max_rolls=...)``): none, since a slot costs
 #: memory and an engine with slots compiles the rolling integrator (``synth bench cold``).
 MAX_ROLLS = 0
-
-
-def table_step(model) -> float:
-    """The mode-shape table's row spacing of a modal model, m: ``POINTS_PER_WAVELENGTH`` rows
-    per bending wavelength of its highest mode (as the offline rolling's)."""
-    w_max = float(np.max(np.abs(model.poles.imag))) if model.poles.size else 0.0
-    k_b = bending_wavenumber(model.modes.plate, w_max)
-    return 2.0 * math.pi / (POINTS_PER_WAVELENGTH * k_b) if k_b > 0.0 else 1.0
 
 
 def body_rolls(slots: int, model, frames: int) -> dict:
@@ -59,17 +54,6 @@ def _velocity(velocity) -> tuple[float, float, float]:
             f"{MAX_ROLL_SPEED} m/s"
         )
     return (speed, vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0, 0.0)
-
-
-def _reach(plate, x, y, ux, uy) -> float:
-    """How far (m) the point ``(x, y)`` may move along ``(ux, uy)`` and stay on the plate."""
-    reach = math.inf
-    for p, u, size in ((x, ux, plate.length), (y, uy, plate.width)):
-        if u > 0.0:
-            reach = min(reach, (size - p) / u)
-        elif u < 0.0:
-            reach = min(reach, -p / u)
-    return max(reach, 0.0)
 
 
 #: What ended a rolling voice, by ``I_ENDED``.
@@ -170,8 +154,8 @@ class RollingVoice:
         plate = body.plate
         step = body._roll_step
         rows_cap = body._rolls["roll_rows"]
-        back = min(MARGIN, _reach(plate, x, y, -ux, -uy))
-        ahead = min(speed * HORIZON + MARGIN, _reach(plate, x, y, ux, uy))
+        back = min(MARGIN, max(edge_distance(plate, (x, y), (-ux, -uy)), 0.0))
+        ahead = min(speed * HORIZON + MARGIN, max(edge_distance(plate, (x, y), (ux, uy)), 0.0))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
         if not self._holds(0):  # ended: its slots may be another voice's
             return
@@ -185,7 +169,10 @@ class RollingVoice:
                     ear._model, origin=(x, y), direction=(ux, uy), start=-back, stop=ahead,
                     step=step,
                 )  # fmt: skip
-            _write_back(ear._rolls, r, b, tables[key], speed)
+            table, rolls = tables[key], ear._rolls
+            rows = table.excitation.shape[0]
+            rolls["roll_tables"][r, b, :rows] = table.excitation
+            rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
         old = rb.exchange(contact, rb.I_MIDDLE, b | rb.FRESH)
         contact[rb.I_BACK] = old & 3
 
@@ -196,14 +183,6 @@ class RollingVoice:
         with self._lock:
             if self.playing and self._holds(0) and self._ints[rb.I_STOP] < 0:
                 self._ints[rb.I_STOP] = frames
-
-
-def _write_back(rolls: dict, r: int, b: int, table, speed: float) -> None:
-    """Write ``table`` (a :class:`synth.sound.rolling.PathExcitation`) at ``speed`` (m/s) into
-    buffer ``b`` of slot ``r`` of an ear's rolling arrays."""
-    rows = table.excitation.shape[0]
-    rolls["roll_tables"][r, b, :rows] = table.excitation
-    rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
 
 
 def rolls(body) -> bool:
@@ -226,11 +205,23 @@ def stop_rolls(body, fade: float | None) -> None:
                 ints[r, rb.I_STOP] = frames
 
 
-def start_roll(
-    body, ball, position, velocity, *, envelope, start: float = 0.0, gain: float = 1.0,
-    contact: str = "hertz", rtol: float = 1e-6,
-) -> RollingVoice | None:  # fmt: skip
-    """:meth:`synth.live.Body.roll` (see there)."""
+@dataclass(frozen=True)
+class RollOptions:
+    """:meth:`synth.live.Body.roll`'s options: the ``envelope`` and the centre's ``start`` on it
+    (m), the voice's ``gain``, the ``contact`` law and ``rtol`` (as :func:`synth.physics.
+    rolling.roll`)."""
+
+    envelope: ContactEnvelope
+    start: float = 0.0
+    gain: float = 1.0
+    contact: str = "hertz"
+    rtol: float = 1e-6
+
+
+def start_roll(body, ball, position, velocity, **options) -> RollingVoice | None:
+    """:meth:`synth.live.Body.roll` (see there; ``options``: :class:`RollOptions`)."""
+    o = RollOptions(**options)
+    envelope = o.envelope
     engine = body._engine
     if body._removed:
         raise SynthError("this body was removed from its engine (Body.remove): add it again")
@@ -245,12 +236,12 @@ def start_roll(
         raise ParameterError(f"ball={ball!r} must be a Ball")
     x, y = body.plate.check_position(position, "position")
     speed, ux, uy = _velocity(velocity)
-    g = check_gain(gain)
-    fs = engine.samplerate
+    g = check_gain(o.gain)
     roller = Roller.over(
-        ball, body.plate, envelope, samplerate=fs, origin=(0.0, 0.0), contact=contact, rtol=rtol
-    )
-    s0 = checks.in_range("start", start, 0.0, envelope.length, "metres", lo_open=False)
+        ball, body.plate, envelope, samplerate=engine.samplerate, origin=(0.0, 0.0),
+        contact=o.contact, rtol=o.rtol,
+    )  # fmt: skip
+    s0 = checks.in_range("start", o.start, 0.0, envelope.length, "metres", lo_open=False)
     with body._roll_lock:  # no update of an ended voice of the slot writes into it meanwhile
         slots = _take_slots(body)
         if slots is None:
@@ -297,7 +288,7 @@ def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
     body._roll_holds[r] = (envelope, coef_env, offsets)  # alive while the slot reads them
     state = roller.initial_state(speed, s0)
     fv = arrays["roll_floats"][r]
-    fv[rb.F_M : rb.F_HMAX + 1] = roller.kernel_constants()
+    fv[rb.F_M : rb.F_HMAX + 1] = roller.constants
     fv[rb.F_DX] = envelope.spacing
     fv[rb.F_LENGTH] = envelope.length
     fv[rb.F_H] = state.step

@@ -1,26 +1,18 @@
 """The audio thread's share of a rolling voice: its contact integrated and its force driving
 the plate's modes, block by block, inside the compiled callback (docs/live.md, "Rolling").
 
-A body holds ``max_rolls`` rolling slots (:func:`rolling_arrays`). A voice holds the same slot
-at each ear; the first ear's holds its contact (the *contact slot*, reached through the
-addresses ``I_C_*``), integrated once a block for every ear. Each block, a live slot:
-
-1. if its contact has not rolled this block (``I_BLOCK``): takes the game's newest update
-   from a lock-free triple buffer (Bartlett's "triple buffering": the game swaps its back
-   buffer with the middle one by an atomic exchange, :func:`exchange`, flagged ``FRESH``),
-   the update's speed and the mode-shape table ahead of it (as
-   :func:`synth.sound.rolling.path_excitation`), anchored at the centre's path coordinate
-   now; then rolls it with the offline integrator (:func:`synth.physics.rolling_kernels.roll`,
-   no allocation), at most :data:`MAX_STEPS_PER_SAMPLE` steps a sample (beyond: it fades out,
-   failed), its force and touching point kept in the contact slot's work buffer;
-2. drives its ear's modes with that force held over each sample period at the touching
-   point (:func:`synth.sound.rolling.drive_modes`), heard through the ear's gains (ramped
-   over a block after a move, :func:`_take_heard`; an accelerometer's direct term too),
-   times the voice's ramped gain and fade, into the body's mix.
-
-A stopped voice, one whose centre would leave the envelope, and one that failed fade out as
-the contact decides (``I_FADE_FROM``), alike at every ear; each ear's slot is then freed and
-its end posted in the voice-ended ring. A slot is taken only when free at every ear.
+A body holds ``max_rolls`` slots (:func:`rolling_arrays`); a voice holds the same slot at each
+ear, the first ear's holding its contact (the *contact slot*, reached through ``I_C_*``),
+rolled once a block for every ear. Each block a live slot (1) if its contact has not rolled
+(``I_BLOCK``), takes the game's newest update from a lock-free triple buffer (the game swaps
+its back buffer with the middle one by an atomic :func:`exchange`, flagged ``FRESH``), the
+speed and the mode-shape table ahead, anchored at the centre's path coordinate now, and rolls
+it with the offline integrator (:func:`synth.physics.rolling_kernels.roll`) at most
+:data:`MAX_STEPS_PER_SAMPLE` steps a sample; (2) drives its ear's modes with that force at the
+touching point (as :func:`synth.sound.rolling.drive_modes`), heard through the ear's gains
+(ramped over a block after a move), times the voice's gain and fade, into the body's mix. A
+stopped, leaving or failed voice fades out alike at every ear, then each ear's slot is freed
+and its end posted. A slot is taken only when free at every ear.
 """
 
 from __future__ import annotations
@@ -38,28 +30,24 @@ from synth.live.atomics import fence, pointer_to
 from synth.live.heard import HPI, HPR, SEQ_PUT
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
-from synth.physics.rolling_kernels import N_STATE, roll
+from synth.physics.rolling_kernels import N_STATE, Constants, roll, touching_points
 from synth.sound.modal_bank.pulse import response_per_transform
 from synth.sound.rolling import drive_sample
 
-#: The most integration steps a sample of a live rolling may take, a bound on the audio
-#: thread's work (the offline solver takes about 1 to 1.5).
+#: The most integration steps a sample of a live rolling may take: a bound on the callback's work.
 MAX_STEPS_PER_SAMPLE = 16
 
 #: Slot states (WRITING: taken by the game's thread, not yet published), and the middle
 #: buffer's flag: the game put an update there that the callback has not taken.
 FREE, LIVE, WRITING, FRESH = 0, 1, 2, 4
 
-#: int64 fields of a slot (``ints``); (c): read in the contact slot. Its state and voice id;
-#: (c) the middle buffer's index (| FRESH, swapped by both threads), the callback's and the
-#: game's buffers; (c) the stop fade asked (frames, -1 none; the game's), the frame its fade
-#: started (-1 none), its length, the fade of a voice that ends by itself; 1 once its first
-#: block preloaded the ear's modes; (c) why it ended (0 not, END_*), integration steps,
-#: frames rolled; samples whose contact point lay beyond the update's table; (c) the
-#: addresses and lengths of the envelope's spline coefficients ((n, 4) float64) and contact
-#: offsets; the body's ears (the voice-ended event's suffix); the ``heard_seq`` the slot
-#: hears through; 1: an accelerometer (direct term); (c) the first frame of the block last
-#: rolled (-1 none); the addresses of the contact slot's ints, floats, state, work buffer.
+#: int64 fields of a slot (``ints``; (c): read in the contact slot): state, voice id; (c) the
+#: middle buffer (| FRESH), the callback's, the game's; (c) the stop fade asked (frames, -1
+#: none), the fade's first frame (-1 none), its length, the fade of a voice ending by itself;
+#: 1 once preloaded; (c) why it ended (END_*), steps, frames; samples beyond the table; (c) the
+#: envelope's spline coefficients' and contact offsets' addresses and lengths; the body's ears;
+#: the ``heard_seq`` heard through; 1: accelerometer; (c) the first frame of the block last
+#: rolled; the contact slot's ints', floats', state's and work buffer's addresses.
 (
     I_STATE, I_ID, I_MIDDLE, I_FRONT, I_BACK, I_STOP, I_FADE_FROM, I_FADE_LEN, I_END_FADE,
     I_STARTED, I_ENDED, I_STEPS, I_FRAMES, I_OVERRUN, I_ENV, I_ENV_N, I_OFF, I_OFF_N, I_EARS,
@@ -69,34 +57,30 @@ FREE, LIVE, WRITING, FRESH = 0, 1, 2, 4
 #: Why a rolling voice ended (``I_ENDED``).
 END_STOPPED, END_SURFACE, END_FAILED = 1, 2, 3
 
-#: float64 fields of a slot (``floats``): (contact) the kernel's constants (in its order),
-#: the envelope's spacing and length, the next step, the segment's anchor; the ear's gains;
-#: (contact) the last force, the speed, the force before the block last rolled.
+#: float64 fields of a slot (``floats``): (contact) the kernel's :class:`Constants`, the
+#: envelope's spacing and length, the next step, the segment's anchor; the ear's gains; (contact)
+#: the last force, the speed, the force before the block last rolled.
 (
     F_M, F_K, F_N, F_MU, F_B, F_BETA, F_G, F_FS, F_RTOL, F_DREF, F_HMAX,
     F_DX, F_LENGTH, F_H, F_ANCHOR, F_GAIN, F_GAIN_NOW, F_PREVIOUS, F_SPEED, F_BEFORE,
     N_FLOATS,
 ) = range(21)  # fmt: skip
 
-#: A buffer's scalars (``meta``): the update's speed (m/s), the table's first row's and
-#: its step's distance from the game's position along the segment (m), its rows.
+#: A buffer's scalars (``meta``): the speed (m/s), the table's start and step (m), its rows.
 M_SPEED, M_START, M_STEP, M_ROWS, N_META = range(5)
 
-#: Rows of a slot's coefficients (``coef``, float64 (N_COEF, K)): one sample's ringing
-#: ``e^(p/fs)``, the listener's response per unit state now, the hold's gain ``(e^(p/fs) -
-#: 1) / p`` (each re, im; as :func:`synth.sound.rolling.drive_modes`), ``-1 / p`` (the
-#: static deflection per unit excitation, for the preload); the response's target over a
-#: block after the listener moved (re, im); what turns a listener's gain ``G_k`` (the
-#: body's ``heard``) into the response, ``-i s / omega_dk`` (``s`` the body's full-scale
-#: factor), and into the accelerometer's direct weight ``Re(G_k s / p_k^2) = s phi_k(xp)``
-#: (0 for a microphone) (each re, im); that weight now and its target.
+#: Rows of a slot's coefficients (``coef``, (N_COEF, K), each complex one re, im): ``e^(p/fs)``,
+#: the listener's response now, the hold's gain ``(e^(p/fs) - 1) / p`` (as
+#: :func:`synth.sound.rolling.drive_modes`), ``-1 / p`` (the preload's deflection), the
+#: response's target after a move, what turns a heard gain ``G_k`` into the response (``-i s /
+#: omega_dk``, ``s`` the full-scale factor) and into the accelerometer's direct weight (``s /
+#: p_k^2``); that weight (real) now and its target.
 (
     C_ER, C_EI, C_LR, C_LI, C_HR, C_HI, C_QR, C_QI, C_TR, C_TI, C_OR, C_OI, C_AR, C_AI,
     C_D, C_DT, N_COEF,
 ) = range(17)  # fmt: skip
 
-#: Rows of a slot's work buffer (float64 (N_BUF, mix frames); the contact slot's is read:
-#: after its block, ``W_FORCE`` the force, ``W_CENTRE`` the touching point's coordinate).
+#: Rows of a slot's work buffer ((N_BUF, mix frames); the contact slot's is read).
 W_SPEED, W_FORCE, W_MINPEN, W_CENTRE, N_BUF = range(5)
 
 
@@ -121,8 +105,8 @@ def exchange(array, index, value):
 
 
 def rolling_arrays(slots: int, modes: int, rows: int, frames: int) -> dict:
-    """A body's rolling slots' arrays by body-record field name: ``slots`` slots of ``modes``
-    modes, tables of ``rows`` rows, work buffers of ``frames`` (the engine's mixing piece)."""
+    """A body's rolling arrays by body-record field: ``slots`` slots of ``modes`` modes, tables of
+    ``rows`` rows, work buffers of ``frames``."""
     return dict(
         roll_ints=np.zeros((slots, N_INTS), dtype=np.int64),
         roll_floats=np.zeros((slots, N_FLOATS)), roll_y=np.zeros((slots, N_STATE)),
@@ -155,13 +139,11 @@ def _heard_change(coef, zr, zi):
 @compiled(nogil=True, sums=True)
 def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, gain0, gain1,
            fade_at, fade_len, ramp, direct, previous):  # fmt: skip
-    """Drive the modes ``zr + i zi`` with ``force`` held over each period at ``coordinate``
-    (m along the table's segment, rows interpolated, held at its ends), as
-    :func:`synth.sound.rolling.drive_modes`, adding what the listener hears (ramped to its
-    target when ``ramp``; with ``direct``, an accelerometer's direct term of the held
-    force's mean, ``previous`` the force before the block) times the gain ramped from
-    ``gain0`` to ``gain1`` and the fade from ``fade_at`` (-1 none) into ``out``. Returns the
-    samples held at a table end."""
+    """Drive the modes ``zr + i zi`` with ``force`` at ``coordinate`` (m along the table, held at
+    its ends) as :func:`synth.sound.rolling.drive_modes`, adding what the listener hears (ramped
+    when ``ramp``; ``direct``: an accelerometer's term, ``previous`` the force before) times the
+    gain ramped ``gain0`` to ``gain1`` and the fade from ``fade_at`` (-1 none) into ``out``.
+    Returns the samples held at a table end."""
     er, ei, lr, li, hr, hi = coef[C_ER], coef[C_EI], coef[C_LR], coef[C_LI], coef[C_HR], coef[C_HI]
     overrun = 0
     g_step = (gain1 - gain0) / n
@@ -208,8 +190,8 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
 
 @compiled(nogil=True, inline="always")
 def _take_heard(iv, coef, heard, seq):
-    """At a block's start: gains handed over since the slot's (copied whole under the
-    producer's sequence number) become its target for the block; returns whether."""
+    """Gains handed over since the slot's (whole under the producer's sequence number) become its
+    target for the block; returns whether."""
     put = seq[SEQ_PUT]
     if put == iv[I_HEARD] or put % 2 == 1:
         return False
@@ -228,9 +210,8 @@ def _take_heard(iv, coef, heard, seq):
 
 
 def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
-    """A slot's rows (``C_LR``, ``C_LI``, ``C_D``, ``C_OR`` .. ``C_AI``) for the listener's
-    complex ``gains`` (K,) of modes of ``poles`` (rad/s) at full-scale factor ``scale``
-    (:func:`synth.sound.modal_bank.pulse.response_per_transform`)."""
+    """A slot's listener rows for the complex ``gains`` (K,) of modes of ``poles`` (rad/s) at
+    full-scale factor ``scale`` (:func:`synth.sound.modal_bank.pulse.response_per_transform`)."""
     p = np.asarray(poles, dtype=complex)
     to_response = response_per_transform(p, scale, 1.0)
     to_direct = scale / (p * p) if accelerometer else np.zeros(p.size, dtype=complex)
@@ -244,8 +225,7 @@ def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
 
 @compiled(nogil=True, inline="always")
 def _preload(coef, row_a, row_b, t, F, zr, zi):
-    """The modes in their static deflection ``zeta = -b F / p`` under ``F`` (N) at the row
-    interpolated at ``t``: a ball already rolling (as :func:`synth.sound.rolling.rolling_sound`)."""
+    """The modes in their static deflection ``-b F / p`` under ``F`` (N) at the row at ``t``."""
     for k in range(zr.shape[0]):
         bf = ((1.0 - t) * row_a[k] + t * row_b[k]) * F
         zr[k] = bf * coef[C_QR, k]
@@ -262,23 +242,16 @@ def _take_update(iv, fv, y):
 
 
 @compiled(nogil=True, inline="always")
-def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
-    """The touching point's distance along the segment (m) mid-period, into the centre's row:
-    the centre plus the envelope's contact offset (as
-    :meth:`synth.physics.rolling.Roller.contact_coordinates`), less the anchor."""
-    centre = buf[W_CENTRE]
-    last = offsets.shape[0] - 1
+def _contact_coordinates(centre, speed, fs, offsets, dx, anchor):
+    """The touching point's distance along the segment (m) mid-period, over the centre's path
+    coordinates ``centre`` (in place): as :meth:`synth.physics.rolling.Roller.contact_coordinates`,
+    less the ``anchor`` (m)."""
     half = 0.5 * speed / fs
-    for j in range(n):
-        c = centre[j] + half
-        u = c / dx
-        i = int(math.floor(u))
-        if i < 0:
-            i = 0
-        if i > last - 1:
-            i = last - 1
-        t = u - i
-        centre[j] = c + offsets[i] + t * (offsets[i + 1] - offsets[i]) - anchor
+    for j in range(centre.shape[0]):
+        centre[j] += half
+    touching_points(centre, offsets, dx, centre)
+    for j in range(centre.shape[0]):
+        centre[j] -= anchor
 
 
 @compiled(nogil=True, inline="always")
@@ -299,9 +272,8 @@ def _hold_still(cf, y, buf, n):
 
 @compiled(nogil=True)
 def _roll_contact(n, t0, cv, cf, y, buf, speed):
-    """Roll a voice's contact (``cv``, ``cf``, state ``y``, work ``buf``) over ``n`` frames
-    from ``t0`` at ``speed`` (m/s): force and touching point into ``buf``; its fade started
-    if it was stopped, would leave the envelope or failed."""
+    """Roll a voice's contact (``cv``, ``cf``, state ``y``) over ``n`` frames from ``t0`` at
+    ``speed`` (m/s) into ``buf``; its fade started if stopped, leaving the envelope or failed."""
     cv[I_BLOCK] = t0
     cf[F_BEFORE] = cf[F_PREVIOUS]
     if cv[I_STOP] >= 0 and cv[I_FADE_FROM] < 0:
@@ -318,10 +290,11 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
         for j in range(n):
             speeds[j] = speed
         env = numba.carray(pointer_to(cv[I_ENV]), (cv[I_ENV_N], 4), np.float64)
+        c = Constants(cf[F_M], cf[F_K], cf[F_N], cf[F_MU], cf[F_B], cf[F_BETA], cf[F_G], fs,
+                      cf[F_RTOL], cf[F_DREF], cf[F_HMAX])  # fmt: skip
         status, steps, _, _, h = roll(
-            y, cf[F_H], env, cf[F_DX], speeds[:n], cf[F_M], cf[F_K], cf[F_N], cf[F_MU],
-            cf[F_B], cf[F_BETA], cf[F_G], fs, cf[F_RTOL], cf[F_DREF], cf[F_HMAX],
-            MAX_STEPS_PER_SAMPLE * n, force[:n], buf[W_MINPEN, :n], buf[W_CENTRE, :n],
+            y, cf[F_H], env, cf[F_DX], speeds[:n], c, MAX_STEPS_PER_SAMPLE * n, force[:n],
+            buf[W_MINPEN, :n], buf[W_CENTRE, :n],
         )  # fmt: skip
         cf[F_H] = h
         cv[I_STEPS] += steps
@@ -333,7 +306,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
                     buf[W_CENTRE, j] = y[rolling_kernels.S]
             speed = 0.0
     offsets = numba.carray(pointer_to(cv[I_OFF]), cv[I_OFF_N], np.float64)
-    _contact_coordinates(buf, n, speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
+    _contact_coordinates(buf[W_CENTRE, :n], speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
     cf[F_PREVIOUS] = force[n - 1]
     cf[F_SPEED] = speed
     cv[I_FRAMES] += n
@@ -341,8 +314,8 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
 
 @compiled(nogil=True)
 def _roll_slot(out, n, t0, iv, fv, z, coef, tables, meta, heard, seq, events, frames):
-    """One block of one live slot at one ear: its contact rolled (once a block for every
-    ear), then the ear's modes driven. ``frames``: the work buffers' length."""
+    """One block of a live slot at one ear: its contact rolled (once for every ear), then the
+    ear's modes driven. ``frames``: the work buffers' length."""
     cv = numba.carray(pointer_to(iv[I_C_INTS]), N_INTS, np.int64)
     cf = numba.carray(pointer_to(iv[I_C_FLOATS]), N_FLOATS, np.float64)
     buf = numba.carray(pointer_to(iv[I_C_BUF]), (N_BUF, frames), np.float64)

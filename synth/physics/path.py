@@ -23,32 +23,24 @@ from synth.physics.bounces import DEFAULT_MAX_IMPACTS, BounceSequence, Impact
 from synth.physics.contact import ContactSolver
 from synth.physics.scene import Scene
 
-#: Length of the rolling's blocks, s: the speed is updated from the roughness' work at the
-#: end of each.
+#: Length of the rolling's blocks, s: the speed is updated from the roughness' work after each.
 BLOCK_SECONDS = 0.01
 #: Moment of inertia of a solid sphere over ``m R^2``.
 SPHERE_INERTIA = 0.4
 #: The rolling sphere's kinetic energy over ``m v^2``: ``(1 + I / (m R^2)) / 2``.
 ROLLING_ENERGY = 0.5 * (1.0 + SPHERE_INERTIA)
-
-ENDS = ("stopped", "left-plate", "max-duration", "max-impacts")
-#: The ends of the rolling's blocks by their kernel's codes.
-_END_NAMES = {
-    _k.RUNNING: "max-duration",
-    _k.STOPPED: "stopped",
-    _k.LEFT_PLATE: "left-plate",
-}
+#: How a path ends; the first three by the rolling kernel's codes.
+ENDS = ("max-duration", "stopped", "left-plate", "max-impacts")
 #: Blocks of the rolling solved in one call of its kernel.
 CHUNK_BLOCKS = 256
 
 
 @dataclass(frozen=True, eq=False)
 class RollingPart:
-    """The rolling of a :class:`BallPath` on the audio's grid of ``samplerate`` (Hz) from
-    ``start`` (s from the release): per sample period the mean ``force`` on the plate (N),
-    the touching point's ``contact_coordinate`` along the line (m from its ``origin``) and
-    the horizontal ``speed`` (m/s); ``final_force`` after the end (N: 0 off the plate, else
-    ``m g``); the ``energy``; ``flights``, the micro-bounces."""
+    """The rolling of a :class:`BallPath` on the audio's grid of ``samplerate`` (Hz) from ``start``
+    (s from the release): per sample period the mean ``force`` on the plate (N), the touching
+    point's ``contact_coordinate`` along the line (m from its origin) and the ``speed`` (m/s);
+    ``final_force`` after the end (N: 0 off the plate, else ``m g``); ``flights``: micro-bounces."""
 
     samplerate: int
     start: float
@@ -68,8 +60,8 @@ class RollingPart:
 @dataclass(frozen=True)
 class RollingEnergy:
     """Where the rolling's energy went, J: ``initial - final = contact_loss + plate_energy +
-    resistance_work`` up to the solver's error, the energies the kinetic ``(7/10) m v^2``
-    plus the vertical (:class:`synth.physics.rolling.EnergyBalance`)."""
+    resistance_work`` up to the solver's error, the energies the kinetic ``(7/10) m v^2`` plus
+    the vertical (:class:`synth.physics.rolling.EnergyBalance`)."""
 
     initial: float
     final: float
@@ -87,12 +79,11 @@ class RollingEnergy:
 
 @dataclass(frozen=True, eq=False)
 class BallPath:
-    """The path of a ball released with a horizontal velocity: the ``impacts`` (times from
-    the release; ``stop_reason`` the rule that started the rolling, or "max-impacts") at
-    ``impact_points`` (I, 2) (m from the plate's corner), along the line ``origin + s
-    direction`` (m, unit ``direction``); ``rolling_speed`` after the first grip (m/s); the
-    ``rolling`` (None if the ball left or ran out of time first); the ``end`` (one of
-    :data:`ENDS`), its ``end_time`` (s from the release) and ``end_point`` (m)."""
+    """A ball's path: the ``impacts`` (times from the release; ``stop_reason`` the rule that
+    started the rolling, or "max-impacts") at ``impact_points`` (I, 2) (m from the plate's
+    corner) along ``origin + s direction`` (m, unit ``direction``); ``rolling_speed`` after the
+    first grip (m/s); the ``rolling`` (None if the ball left or ran out of time first); the
+    ``end`` (one of :data:`ENDS`), its ``end_time`` (s from the release) and ``end_point`` (m)."""
 
     impacts: BounceSequence
     impact_points: np.ndarray
@@ -112,8 +103,7 @@ def grip(speed: float, spin: float, radius: float) -> float:
 
 
 def edge_distance(plate, origin, direction) -> float:
-    """Distance (m) from ``origin`` (on the plate) along the unit ``direction`` to the
-    plate's edge."""
+    """Distance (m) from ``origin`` (on the plate) along the unit ``direction`` to its edge."""
     out = math.inf
     for p, u, size in (
         (origin[0], direction[0], plate.length),
@@ -252,8 +242,13 @@ def _profile(rolling, length):
 def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
     """The rolling after ``bounces``: the :class:`RollingPart`, the end, its time (s) and the
     touching point's path coordinate (m)."""
-    ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact
-    rolling = scene.rolling
+    ball, plate, g, c, rolling = (
+        scene.ball,
+        scene.plate,
+        scene.gravity,
+        scene.contact,
+        scene.rolling,
+    )
     u, s_edge, speed, v_out = bounces.direction, bounces.edge, bounces.speed, bounces.rebound_speed
     t_sep, s_sep = bounces.separation_time, bounces.separation_position
     R, m = ball.radius, ball.mass
@@ -287,22 +282,21 @@ def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
     first = np.empty(min(block, n_max))
     count, code = _k.block_speeds(speed, decel, first.size, float(fs), x0, x_end, first)
     if count == 0:
-        return None, _END_NAMES[code], t_sep, s_sep
+        return None, ENDS[code], t_sep, s_sep
     y, h = roller.integrator_start(float(first[0]), x0, state)
     m_kinetic = ROLLING_ENERGY * m
-    e_initial = roller.mechanical_energy(rolling_contact.RollingState(y, h))
-    e_initial += m_kinetic * speed * speed
+    e_initial = (
+        roller.mechanical_energy(rolling_contact.RollingState(y, h)) + m_kinetic * speed * speed
+    )
+    drive = _k.Drive(decel, block, x_end, m_kinetic, rolling.resistance * m * g)
     chunks, tallies, scratch = [], np.zeros(4), np.empty(block)
     v, n_done, flights, end = speed, 0, 0, "max-duration"
     while n_done < n_max:
         # the blocks in chunks of whole blocks: each chunk's arrays are written in place
-        size = min(n_max - n_done, block * CHUNK_BLOCKS)
-        chunk = np.empty((3, size))
+        chunk = np.empty((3, min(n_max - n_done, block * CHUNK_BLOCKS)))
         status, code, count, h, v, lost = _k.roll_blocks(
-            y, h, roller.setup.envelope.coefficients, roller.setup.envelope.spacing,
-            *roller.kernel_constants(), rolling_contact.MAX_STEPS_PER_SAMPLE, v, decel,
-            block, size, x_end, m_kinetic, rolling.resistance * m * g, chunk[0], chunk[1],
-            chunk[2], scratch, tallies,
+            y, h, envelope.coefficients, envelope.spacing, roller.constants, drive, v,
+            chunk.shape[1], chunk, scratch, tallies,
         )  # fmt: skip
         chunks.append(chunk[:, :count])
         n_done += count
@@ -312,17 +306,12 @@ def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
                 f"the rolling from {start + n_done / fs:.4g} s: "
                 f"{rolling_contact.status_message(status)}"
             )
-        end = _END_NAMES[code]
+        end = ENDS[code]
         if code != _k.RUNNING:
             break
-    if end == "stopped":
-        v = 0.0
-    state = rolling_contact.RollingState(y, h)
-    e_final = roller.mechanical_energy(state)
-    loss, plate_e, resistance, roughness = (float(t) for t in tallies)
-    energy = RollingEnergy(
-        e_initial, e_final + m_kinetic * v * v, loss, plate_e, resistance, roughness
-    )
+    v = 0.0 if end == "stopped" else v
+    e_final = roller.mechanical_energy(rolling_contact.RollingState(y, h)) + m_kinetic * v * v
+    energy = RollingEnergy(e_initial, e_final, *(float(t) for t in tallies))
     forces, centres, speeds = np.concatenate(chunks, axis=1)
     # the touching points of every period at once (as roll gives them)
     coordinate = roller.contact_coordinates(centres) + behind

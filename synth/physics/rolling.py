@@ -23,15 +23,11 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import rolling_kernels as _k
 from synth.physics.contact_law import ContactLaw, contact_parameters
-from synth.physics.rolling_results import EnergyBalance as EnergyBalance
-from synth.physics.rolling_results import RollingContact as RollingContact
-from synth.physics.rolling_results import RollingState, read_only
 from synth.physics.scene import MAX_GRAVITY, Ball, Plate, check_type
-from synth.physics.surface import ContactEnvelope, envelope_at, samples
+from synth.physics.surface import ContactEnvelope, envelope_at, read_only, samples
 
-#: Most integration steps per sample period before the solver gives up (a contact
-#: resolved at the tolerance asks for a few per period).
-MAX_STEPS_PER_SAMPLE = 2000
+#: Most integration steps per sample period before the solver gives up.
+MAX_STEPS_PER_SAMPLE = _k.MAX_STEPS_PER_SAMPLE
 #: Longest rolling solved in one call, s.
 MAX_DURATION = 3600.0
 #: Most samples of one call (its arrays take about 50 bytes a sample: 1.5 GB).
@@ -42,6 +38,113 @@ _MESSAGES = {
     _k.MAX_STEPS: "The step limit was reached before the end.",
     _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
 }
+
+
+@dataclass(frozen=True)
+class EnergyBalance:
+    """The ball's and its contact's mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) /
+    (n+1)`` at the start and the end (J, potential from the plate's plane) and where the
+    difference went (J): the contact's loss ``Int (F - K delta^n) delta' dt``, into the plate
+    ``Int beta F^2 dt``, the horizontal drive's work ``Int F e'(s) v dt`` and ``Int |F e'(s) v|
+    dt``. ``residual``: ``|final - initial + loss_work + plate_energy - drive_work|`` (0 for the
+    exact solution) over the largest of ``gross_drive_work``, ``loss_work + plate_energy``,
+    ``|final - initial|`` and ``m g delta_static``."""
+
+    initial: float
+    final: float
+    loss_work: float
+    plate_energy: float
+    drive_work: float
+    gross_drive_work: float
+    residual: float
+
+
+@dataclass(frozen=True, eq=False)
+class RollingState:
+    """Where a rolling ended, to continue from (:func:`roll`'s ``state``), or a ball above the
+    surface (:meth:`at`): ``vector`` the integrator's read-only state (SI;
+    :mod:`synth.physics.rolling_kernels`' components), ``step`` its next step, s (None: chosen)."""
+
+    vector: np.ndarray
+    step: float | None
+
+    @classmethod
+    def at(
+        cls,
+        envelope: ContactEnvelope,
+        *,
+        path_position: float,
+        height: float,
+        vertical_velocity: float,
+    ) -> RollingState:
+        """The ball over ``path_position`` (m), its lowest point ``height`` (m) above the envelope
+        (negative: pressed in), moving up at ``vertical_velocity`` (m/s), the plate at rest."""
+        check_type("envelope", envelope, ContactEnvelope)
+        s = checks.in_range(
+            "path_position", path_position, 0.0, envelope.length, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        y = np.zeros(_k.N_STATE)
+        e, _, _ = envelope_at(envelope.coefficients, envelope.spacing, s)
+        y[_k.Z] = e + checks.real("height", height, "metres")
+        y[_k.VY] = checks.real("vertical_velocity", vertical_velocity, "m/s")
+        y[_k.S] = s
+        return cls(read_only(y), None)
+
+    @property
+    def path_position(self) -> float:
+        """The ball's centre on the path, m."""
+        return float(self.vector[_k.S])
+
+    @property
+    def vertical_velocity(self) -> float:
+        """The ball's vertical velocity, m/s (upward)."""
+        return float(self.vector[_k.VY])
+
+
+@dataclass(frozen=True, eq=False)
+class RollingContact:
+    """A rolling ball's contact, sampled at ``samplerate`` (Hz; sample ``j`` covers ``[j, j + 1) /
+    samplerate`` s). Per sample period (N,): the mean ``force`` on the plate (N), the centre's
+    ``path_position`` mid-period (m), the touching point's ``contact_coordinate`` on the path
+    (m) and ``contact_point`` (N, 2) on the plate (m), the least ``min_penetration`` at the
+    steps' ends (m; <= 0: off the plate), the ``speed`` (m/s). ``flights``: losses of contact;
+    ``admittance`` ``beta`` (m/(N s)); ``static_penetration`` ``(m g / K)^(1/n)`` (m, the error
+    control's scale); ``status`` 0 or a failure (``message``); ``final_state`` to continue from."""
+
+    samplerate: int
+    force: np.ndarray
+    path_position: np.ndarray
+    contact_coordinate: np.ndarray
+    contact_point: np.ndarray
+    min_penetration: np.ndarray
+    flights: int
+    energy: EnergyBalance
+    law: ContactLaw
+    admittance: float
+    speed: np.ndarray
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    mass: float
+    static_penetration: float
+    success: bool
+    status: int
+    message: str
+    n_steps: int
+    n_rejected: int
+    final_state: RollingState
+
+    @property
+    def contact_lost(self) -> np.ndarray:
+        """Samples in which the ball was seen off the plate (bool, (N,))."""
+        return self.min_penetration <= 0.0
+
+    @property
+    def mean_drag(self) -> float:
+        """Mean horizontal force the contact opposes to the ball's motion, N: the drive's
+        work per metre of path (NaN if the ball did not move)."""
+        distance = float(np.sum(self.speed)) / self.samplerate
+        return self.energy.drive_work / distance if distance > 0.0 else math.nan
 
 
 def _direction(direction) -> tuple[float, float]:
@@ -69,14 +172,10 @@ def roll(
 
     ``speed``: the centre's horizontal speed, m/s (>= 0), one for ``duration`` (s, at most
     :data:`MAX_DURATION`) or one per sample period of ``samplerate`` (Hz). ``origin``: the path's
-    coordinate 0 on the plate, m from its corner. ``start``: the centre's path coordinate at time 0,
-    m (default 0); or ``state``: an earlier rolling's ``final_state`` (consecutive calls give the
-    bits of one call) or a ball above the surface (:meth:`RollingState.at`). ``options``: those of
-    :meth:`Roller.over`.
-
-    Without ``state`` the ball starts as a ball rolled there slowly would be: pressed with ``m (g
-    + v^2 e''(s0))`` (the weight and the centripetal force), its penetration steady; just
-    touching if that force is negative."""
+    coordinate 0 on the plate, m from its corner. ``start``: the centre's path coordinate at time
+    0, m (default 0: pressed with ``m (g + v^2 e''(s0))``, its penetration steady, as a ball rolled
+    there slowly); or ``state``: an earlier rolling's ``final_state`` (consecutive calls give the
+    bits of one call) or :meth:`RollingState.at`. ``options``: :meth:`Roller.over`'s."""
     roller = Roller.over(ball, plate, envelope, samplerate=samplerate, origin=origin, **options)
     return roller.roll(speed, duration=duration, start=start, state=state)
 
@@ -85,10 +184,19 @@ def roll(
 class Roller:
     """:func:`roll`'s arguments, checked and worked out once (:meth:`over`) for a rolling solved in
     many consecutive calls (:meth:`roll`; the path's blocks call the kernel with
-    :attr:`kernel_constants` and :meth:`integrator_start`)."""
+    :attr:`constants` and :meth:`integrator_start`): SI values, unit ``direction``."""
 
-    setup: _Setup
     plate: Plate
+    mass: float
+    law: ContactLaw
+    admittance: float
+    gravity: float
+    rtol: float
+    samplerate: int
+    envelope: ContactEnvelope
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    landing_speed: float
 
     @classmethod
     def over(
@@ -124,28 +232,19 @@ class Roller:
                 f"envelope.radius={envelope.radius!r} must be the ball's radius "
                 f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
             )
-        fs = checks.samplerate(samplerate)
-        g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
-        tol = checks.in_range(
-            "rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False
-        )
-        u_land = checks.positive("landing_speed", landing_speed, "m/s")
-        ox, oy = checks.point("origin", origin, 2)
-        ux, uy = _direction(direction)
-        law = contact_parameters(ball, plate, contact, **contact_options)
         beta = (
             1.0 / impedance.infinite_plate_impedance(plate)
             if admittance is None
             else checks.nonnegative("admittance", admittance, "m/(N s)")
         )
-        setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
-        return cls(setup, plate)
-
-    def check_reach(self, first: float, last: float) -> None:
-        """``ParameterError`` unless the touching points of the centre between the path
-        coordinates ``first <= last`` (m) all lie on the plate."""
-        setup = self.setup
-        _check_reach(setup, first, last, self.plate, setup.origin, setup.direction)
+        return cls(
+            plate, ball.mass, contact_parameters(ball, plate, contact, **contact_options), beta,
+            checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2"),
+            checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False,
+                            hi_open=False),
+            checks.samplerate(samplerate), envelope, checks.point("origin", origin, 2),
+            _direction(direction), checks.positive("landing_speed", landing_speed, "m/s"),
+        )  # fmt: skip
 
     def roll(
         self,
@@ -156,9 +255,7 @@ class Roller:
         state: RollingState | None = None,
     ) -> RollingContact:
         """:func:`roll` with this roller's ball, plate, envelope and options."""
-        setup = self.setup
-        fs = setup.samplerate
-        speeds = _speeds(speed, duration, fs)
+        speeds = _speeds(speed, duration, self.samplerate)
         if state is not None:
             if start is not None:
                 raise ParameterError("give start or state, not both")
@@ -167,15 +264,37 @@ class Roller:
             s0 = float(state.vector[_k.S])
         else:
             s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
-        envelope = setup.envelope
-        last = float(s0 + np.cumsum(speeds)[-1] / fs)
-        if not 0.0 <= last <= envelope.length:
+        last = float(s0 + np.cumsum(speeds)[-1] / self.samplerate)
+        if not 0.0 <= last <= self.envelope.length:
             raise ParameterError(
                 f"speed={speed!r} from the path coordinate {s0!r} m reaches {last!r} m, "
-                f"beyond the envelope's length {envelope.length!r} m"
+                f"beyond the envelope's length {self.envelope.length!r} m"
             )
         self.check_reach(s0, last)
-        return _solve(setup, speeds, s0, state)
+        return self._solve(speeds, s0, state)
+
+    @property
+    def max_step(self) -> float:
+        """The largest step, s (see :meth:`over`'s ``landing_speed``)."""
+        K, n, u = self.law.stiffness, self.law.exponent, self.landing_speed
+        delta_max = ((n + 1.0) * self.mass * u * u / (2.0 * K)) ** (1.0 / (n + 1.0))
+        return min(delta_max / u, 1.0 / self.samplerate)
+
+    @property
+    def static_penetration(self) -> float:
+        """``(m g / K)^(1/n)``, m: the error control's scale."""
+        return (self.mass * self.gravity / self.law.stiffness) ** (1.0 / self.law.exponent)
+
+    @functools.cached_property
+    def constants(self) -> _k.Constants:
+        """The kernels' :class:`synth.physics.rolling_kernels.Constants` (a path calls them per
+        block)."""
+        law = self.law
+        return _k.Constants(
+            self.mass, law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time,
+            self.admittance, self.gravity, float(self.samplerate), self.rtol,
+            self.static_penetration, self.max_step,
+        )  # fmt: skip
 
     def initial_state(self, speed: float, start: float) -> RollingState:
         """The state and first step :func:`roll` starts from at ``start`` (m), ``speed`` (m/s)."""
@@ -183,24 +302,107 @@ class Roller:
         return RollingState(read_only(y), float(h))
 
     def integrator_start(self, speed: float, start: float, state: RollingState | None):
-        """The state vector (new) and first step (s) of a rolling from ``state`` or at
-        ``start`` (m) and ``speed`` (m/s)."""
-        return _start(self.setup, np.array([float(speed)]), float(start), state)
-
-    def kernel_constants(self) -> tuple:
-        """``(m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max)`` (SI), the constants of
-        :func:`synth.physics.rolling_kernels.roll` after the speeds."""
-        return self.setup.kernel_constants
+        """The state vector (new) and first step (s) from ``state`` or at ``start`` (m) and
+        ``speed`` (m/s): pressed with ``F0 = m (g + v^2 e''(s0))`` (:func:`roll`), its
+        penetration ``(F0 / K)^(1/n)`` steady (the plate at ``-beta F0``), touching if ``F0 <=
+        0``."""
+        m, g, beta = self.mass, self.gravity, self.admittance
+        first = min(0.1 * math.sqrt(self.static_penetration / g), 1.0 / self.samplerate)
+        if state is not None:
+            return np.array(state.vector), (state.step if state.step is not None else first)
+        v = float(speed)
+        e, ep, epp = envelope_at(self.envelope.coefficients, self.envelope.spacing, start)
+        F0 = m * (g + v * v * epp)
+        y = np.zeros(_k.N_STATE)
+        y[_k.S] = start
+        y[_k.Z], y[_k.VY] = e, ep * v
+        if F0 > 0.0:
+            y[_k.Z] = e - (F0 / self.law.stiffness) ** (1.0 / self.law.exponent)
+            y[_k.VY] = ep * v - beta * F0
+        return y, first
 
     def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
         """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
-        :attr:`RollingContact.contact_coordinate`."""
-        return _contact_coordinates(self.setup, centres)
+        :attr:`RollingContact.contact_coordinate`
+        (:func:`synth.physics.rolling_kernels.touching_points`)."""
+        env = self.envelope
+        centres = np.ascontiguousarray(centres, dtype=float)
+        out = np.empty_like(centres)
+        _k.touching_points(centres, env.contact_offsets, float(env.spacing), out)
+        return out
+
+    def points(self, coordinates: np.ndarray) -> np.ndarray:
+        """The plate's points (m from its corner) at the path ``coordinates`` (m)."""
+        (ox, oy), (ux, uy) = self.origin, self.direction
+        return np.column_stack((ox + ux * coordinates, oy + uy * coordinates))
+
+    def check_reach(self, first: float, last: float) -> None:
+        """``ParameterError`` unless the touching points of the centre between the path
+        coordinates ``first <= last`` (m) all lie on the (convex) plate: piecewise linear in the
+        centre, their extremes are at the ends or at the envelope's samples between them."""
+        env = self.envelope
+        i0 = int(math.ceil(first / env.spacing))
+        i1 = int(math.floor(last / env.spacing))
+        nodes = _k.node_reach(env.contact_offsets, float(env.spacing), i0, i1)
+        reach = np.concatenate((self.contact_coordinates(np.array([first, last])), nodes))
+        points = self.points(np.array([np.min(reach), np.max(reach)]))
+        a, b = self.plate.length, self.plate.width
+        x, y = points[:, 0], points[:, 1]
+        off = (x < 0.0) | (x > a) | (y < 0.0) | (y > b)
+        if np.any(off):
+            i = int(np.argmax(off))
+            raise ParameterError(
+                f"origin={self.origin!r} with direction={self.direction!r}: the contact point "
+                f"({x[i]:.6g}, {y[i]:.6g}) m leaves the plate (x in [0, {a!r}], "
+                f"y in [0, {b!r}] metres)"
+            )
 
     def mechanical_energy(self, state: RollingState) -> float:
-        """The ball's and its contact's mechanical energy in ``state``, J (as
-        :attr:`EnergyBalance.initial`)."""
-        return _mechanical_energy(state.vector, self.setup)
+        """``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` (J) of the ball and its contact in
+        ``state`` (as :attr:`EnergyBalance.initial`)."""
+        y, m, n = state.vector, self.mass, self.law.exponent
+        e, _, _ = envelope_at(self.envelope.coefficients, self.envelope.spacing, y[_k.S])
+        delta = e - y[_k.Z]
+        elastic = self.law.stiffness * delta ** (n + 1.0) / (n + 1.0) if delta > 0.0 else 0.0
+        return 0.5 * m * y[_k.VY] ** 2 + m * self.gravity * (y[_k.Z] + y[_k.U]) + elastic
+
+    def _solve(self, speeds, s0, state) -> RollingContact:
+        """:func:`roll`'s integration from ``s0`` (m) or ``state`` over ``speeds`` (m/s)."""
+        fs, N = self.samplerate, speeds.size
+        y, h = self.integrator_start(speeds[0], s0, state)
+        y0 = y.copy()
+        # NaN where a failed integration did not reach; the path coordinate at each period's start
+        forces, min_pen, path = np.full(N, np.nan), np.full(N, np.nan), np.full(N, np.nan)
+        status, steps, rejected, flights, h = _k.roll(
+            y, h, self.envelope.coefficients, self.envelope.spacing, speeds, self.constants,
+            _k.MAX_STEPS_PER_SAMPLE * N, forces, min_pen, path,
+        )  # fmt: skip
+        E0 = self.mechanical_energy(RollingState(y0, None))
+        E1 = self.mechanical_energy(RollingState(y, None))
+        loss, plate_e, drive, gross = (
+            y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS)
+        )
+        scale = max(
+            gross, loss + plate_e, abs(E1 - E0), self.mass * self.gravity * self.constants.delta_ref
+        )
+        balance = EnergyBalance(
+            E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
+        )
+        path += 0.5 * speeds / fs  # the middle of each period
+        # the integrated path is the planned one (checked on the plate) within rounding
+        reached = np.isfinite(path)
+        coordinate = np.full(N, np.nan)
+        coordinate[reached] = self.contact_coordinates(path[reached])
+        points = self.points(coordinate)
+        final = RollingState(read_only(y.copy()), float(h))
+        for a in (forces, path, coordinate, points, min_pen, speeds):
+            a.setflags(write=False)
+        return RollingContact(
+            fs, forces, path, coordinate, points, min_pen, int(flights), balance, self.law,
+            self.admittance, speeds, self.origin, self.direction, self.mass,
+            self.constants.delta_ref, status == _k.OK, int(status), status_message(status),
+            int(steps), int(rejected), final,
+        )  # fmt: skip
 
 
 def status_message(status: int) -> str:
@@ -229,164 +431,9 @@ def _speeds(speed, duration, fs) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class _Setup:
-    """The checked constants of one :func:`roll` call."""
-
-    mass: float
-    law: ContactLaw
-    admittance: float
-    gravity: float
-    rtol: float
-    samplerate: int
-    envelope: ContactEnvelope
-    origin: tuple[float, float]
-    direction: tuple[float, float]
-    landing_speed: float
-
-    @property
-    def max_step(self) -> float:
-        """The largest step, s (see :func:`roll`'s ``landing_speed``)."""
-        K, n, u = self.law.stiffness, self.law.exponent, self.landing_speed
-        delta_max = ((n + 1.0) * self.mass * u * u / (2.0 * K)) ** (1.0 / (n + 1.0))
-        return min(delta_max / u, 1.0 / self.samplerate)
-
-    @functools.cached_property
-    def kernel_constants(self) -> tuple:
-        """:meth:`Roller.kernel_constants`, worked out once (a path calls the kernel per
-        block)."""
-        law = self.law
-        K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-        delta_ref = (self.mass * self.gravity / K) ** (1.0 / n)
-        return (
-            self.mass, K, n, mu, b, self.admittance, self.gravity, float(self.samplerate),
-            self.rtol, delta_ref, self.max_step,
-        )  # fmt: skip
-
-
-def _contact_points(setup, centre):
-    """Path coordinates (m) and plate points (m) of the touching points of the centre at
-    the path coordinates ``centre`` (m)."""
-    coordinate = _contact_coordinates(setup, centre)
-    (ox, oy), (ux, uy) = setup.origin, setup.direction
-    return coordinate, np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
-
-
-def _contact_coordinates(setup, centre):
-    """Path coordinates (m) of the touching points of the centre at ``centre`` (m)
-    (:func:`synth.physics.rolling_kernels.touching_points`)."""
-    env = setup.envelope
-    centre = np.ascontiguousarray(centre, dtype=float)
-    out = np.empty_like(centre)
-    _k.touching_points(centre, env.contact_offsets, float(env.spacing), out)
-    return out
-
-
-def _check_reach(setup, first, last, plate, origin, direction):
-    """``ParameterError`` unless the touching points of the centre between the path
-    coordinates ``first <= last`` (m) are on the (convex) plate: piecewise linear in the
-    centre, their extremes are at the ends or at the envelope's samples between them."""
-    env = setup.envelope
-    i0 = int(math.ceil(first / env.spacing))
-    i1 = int(math.floor(last / env.spacing))
-    nodes = _k.node_reach(env.contact_offsets, float(env.spacing), i0, i1)
-    ends = _contact_coordinates(setup, np.array([first, last]))
-    reach = np.concatenate((ends, nodes))  # nodes: their least and largest
-    (ox, oy), (ux, uy) = setup.origin, setup.direction
-    extremes = np.array([np.min(reach), np.max(reach)])
-    points = np.column_stack((ox + ux * extremes, oy + uy * extremes))
-    a, b = plate.length, plate.width
-    off = (points[:, 0] < 0.0) | (points[:, 0] > a) | (points[:, 1] < 0.0) | (points[:, 1] > b)
-    if np.any(off):
-        i = int(np.argmax(off))
-        raise ParameterError(
-            f"origin={origin!r} with direction={direction!r}: the contact point "
-            f"({points[i, 0]:.6g}, {points[i, 1]:.6g}) m leaves the plate (x in [0, {a!r}], "
-            f"y in [0, {b!r}] metres)"
-        )
-
-
-def _initial_state(m, K, n, beta, g, v, s0, e, ep, epp) -> np.ndarray:
-    """The state of :func:`roll`'s start without a ``state`` (see :func:`roll`)."""
-    F0 = m * (g + v * v * epp)
-    y = np.zeros(_k.N_STATE)
-    y[_k.S] = s0
-    if F0 > 0.0:
-        delta0 = (F0 / K) ** (1.0 / n)
-        y[_k.Z] = e - delta0
-        y[_k.VY] = ep * v - beta * F0
-    else:
-        y[_k.Z] = e
-        y[_k.VY] = ep * v
-    return y
-
-
-def _mechanical_energy(y, setup) -> float:
-    """``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` (J) of the state ``y``."""
-    m, g, law = setup.mass, setup.gravity, setup.law
-    e, _, _ = envelope_at(setup.envelope.coefficients, setup.envelope.spacing, y[_k.S])
-    delta = e - y[_k.Z]
-    n = law.exponent
-    elastic = law.stiffness * delta ** (n + 1.0) / (n + 1.0) if delta > 0.0 else 0.0
-    return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
-
-
-def _start(setup, speeds, s0, state):
-    """The integrator's state vector and first step (s) from ``s0`` (m) or ``state``."""
-    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
-    law = setup.law
-    K, n = law.stiffness, law.exponent
-    delta_ref = (m * g / K) ** (1.0 / n)
-    first = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
-    if state is None:
-        e, ep, epp = envelope_at(setup.envelope.coefficients, setup.envelope.spacing, s0)
-        return _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp), first
-    return np.array(state.vector), (state.step if state.step is not None else first)
-
-
-def _solve(setup, speeds, s0, state):
-    """:func:`roll`'s integration from ``s0`` (m) or ``state`` over ``speeds`` (m/s)."""
-    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
-    law = setup.law
-    delta_ref = (m * g / law.stiffness) ** (1.0 / law.exponent)
-    y, h = _start(setup, speeds, s0, state)
-    y0 = y.copy()
-    N = speeds.size
-    # NaN where a failed integration did not reach; the path coordinate at each period's start
-    forces, min_pen, path = np.full(N, np.nan), np.full(N, np.nan), np.full(N, np.nan)
-    status, steps, rejected, flights, h = _k.roll(
-        y, h, setup.envelope.coefficients, setup.envelope.spacing, speeds,
-        *setup.kernel_constants, MAX_STEPS_PER_SAMPLE * N, forces, min_pen, path,
-    )  # fmt: skip
-    E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
-    loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
-    scale = max(gross, loss + plate_e, abs(E1 - E0), m * g * delta_ref)
-    balance = EnergyBalance(
-        E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
-    )
-    path += 0.5 * speeds / fs  # the middle of each period
-    # the integrated path is the planned one (checked on the plate) within rounding
-    if status == _k.OK:
-        coordinate, points = _contact_points(setup, path)
-    else:
-        reached = np.isfinite(path)
-        coordinate = np.full(N, np.nan)
-        points = np.full((N, 2), np.nan)
-        coordinate[reached], points[reached] = _contact_points(setup, path[reached])
-    final = RollingState(read_only(y.copy()), float(h))
-    for a in (forces, path, coordinate, points, min_pen, speeds):
-        a.setflags(write=False)
-    return RollingContact(
-        fs, forces, path, coordinate, points, min_pen, int(flights), balance, law, beta, speeds,
-        setup.origin, setup.direction, m, delta_ref, status == _k.OK, int(status),
-        status_message(status), int(steps), int(rejected), final,
-    )  # fmt: skip
-
-
-@dataclass(frozen=True)
 class LossOfContactSpeed:
-    """The speed at which a rolling ball starts to leave the surface: ``speed`` the middle of
-    the bracket ``low`` (stayed on) to ``high`` (left), m/s; ``rolls`` rollings solved;
-    ``success`` if the bracket was found and narrowed to the tolerance."""
+    """The speed (m/s) at which a rolling ball starts to leave the surface, the middle of the
+    bracket ``low`` (stayed on) to ``high`` (left); ``rolls`` solved; ``success`` if narrowed."""
 
     speed: float
     low: float
@@ -397,25 +444,14 @@ class LossOfContactSpeed:
 
 
 def loss_of_contact_speed(
-    ball: Ball,
-    plate: Plate,
-    envelope: ContactEnvelope,
-    *,
-    start: float,
-    stop: float,
-    low: float,
-    high: float,
-    samplerate: int,
-    origin,
-    direction=(1.0, 0.0),
-    tolerance: float = 1e-3,
-    **options,
+    roller: Roller, *, start: float, stop: float, low: float, high: float, tolerance: float = 1e-3
 ) -> LossOfContactSpeed:
-    """The lowest speed (m/s) at which ``ball`` rolling from ``start`` to ``stop`` (path
-    coordinates, m) leaves the surface (a step's end off it), by bisection between ``low``
-    (stays on) and ``high`` (leaves) to the relative ``tolerance`` in (0, 0.1], each speed a
-    :func:`roll` with ``options``: the thesis' question (section 6.2). On a random surface
-    the change may happen more than once; the bracket then holds one of them."""
+    """The lowest speed (m/s) at which the ball of ``roller`` (:meth:`Roller.over`) rolling from
+    ``start`` to ``stop`` (path coordinates, m) leaves the surface (a step's end off it), by
+    bisection between ``low`` (stays on) and ``high`` (leaves) to the relative ``tolerance`` in
+    (0, 0.1], each speed a :meth:`Roller.roll`: the thesis' question (section 6.2). On a random
+    surface the change may happen more than once; the bracket then holds one of them."""
+    check_type("roller", roller, Roller)
     v_lo = checks.positive("low", low, "m/s")
     v_hi = checks.positive("high", high, "m/s")
     if not v_hi > v_lo:
@@ -431,11 +467,8 @@ def loss_of_contact_speed(
         nonlocal rolls
         rolls += 1
         # the last sample ends at or before ``stop``
-        duration = math.floor((s1 - s0) / v * samplerate) / samplerate
-        r = roll(
-            ball, plate, envelope, speed=v, duration=duration, samplerate=samplerate,
-            origin=origin, direction=direction, start=s0, **options,
-        )  # fmt: skip
+        fs = roller.samplerate
+        r = roller.roll(v, duration=math.floor((s1 - s0) / v * fs) / fs, start=s0)
         if not r.success:
             raise _RollFailed(f"at speed {v!r} m/s: {r.message}")
         return bool(np.any(r.contact_lost))

@@ -15,6 +15,7 @@ numba's cache keys these kernels on this file only: after editing
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from synth.compilation import compiled
 from synth.physics.contact_kernels import equations
@@ -22,6 +23,42 @@ from synth.physics.surface import envelope_at, spline_piece
 
 #: The impact solver's contact law, the same compiled function as the impacts'.
 force = equations.force
+
+
+class Constants(NamedTuple):
+    """A rolling's constants (SI): the ball's mass ``m`` (kg), the law's ``K``, ``n``, ``mu``
+    and ``b = (3/2) A`` (s), the plate's admittance ``beta`` (m/(N s)), gravity ``g`` (m/s^2),
+    the ``samplerate`` (Hz), the relative tolerance ``rtol``, the static penetration
+    ``delta_ref`` (m, the error's scale) and the largest step ``h_max`` (s)."""
+
+    m: float
+    K: float
+    n: float
+    mu: float
+    b: float
+    beta: float
+    g: float
+    samplerate: float
+    rtol: float
+    delta_ref: float
+    h_max: float
+
+
+class Drive(NamedTuple):
+    """A path's rolling (:func:`roll_blocks`): the speed's fall ``decel`` (m/s^2) and the periods
+    of a ``block``, the centre's last coordinate ``x_end`` (m), the ``kinetic_mass`` (kg: the
+    kinetic energy over ``v^2``) and the rolling resistance's force (N)."""
+
+    decel: float
+    block: int
+    x_end: float
+    kinetic_mass: float
+    resistance_force: float
+
+
+#: Most integration steps per sample period before the offline solver gives up (a contact
+#: resolved at the tolerance asks for a few per period).
+MAX_STEPS_PER_SAMPLE = 2000
 
 # Status codes.
 OK = 0
@@ -41,8 +78,8 @@ A61, A62, A63, A64, A65 = (
     9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
 )  # fmt: skip
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
-#: An error (relative to the tolerance) below which the step grows by the largest factor,
-#: 5: below ``(0.9 / 5)^5 = 1.9e-4``.
+#: An error (over the tolerance) below which the step grows by the largest factor, 5
+#: (``(0.9 / 5)^5 = 1.9e-4``).
 TINY_ERROR = 1e-4
 E1, E3, E4, E5, E6, E7 = (
     71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
@@ -51,20 +88,21 @@ E1, E3, E4, E5, E6, E7 = (
 
 
 @compiled(inline="always")
-def rates(z, vy, s, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
+def rates(z, vy, s, env, dx, v, c):  # pragma: no cover - compiled
     """The module docstring's right-hand side at the height ``z`` (m), vertical speed ``vy`` (m/s)
-    and path coordinate ``s`` (m): ``(z', vy', u', impulse', loss', plate', drive', gross',
-    delta)``, the last the penetration (m). Inlined into :func:`roll`, where the scalar stages
-    stay in registers (a call per stage cost as much as the equations)."""
+    and path coordinate ``s`` (m) under the :class:`Constants` ``c``: ``(z', vy', u', impulse',
+    loss', plate', drive', gross', delta)``, the last the penetration (m). Inlined into
+    :func:`roll`, where the scalar stages stay in registers."""
     e, ep, _ = envelope_at(env, dx, s)
     delta = e - z
     w = ep * v - vy
-    f, a = force(delta, w, beta * K, n, mu, b, None, 0.0)  # no yield (equations.force)
+    K, beta = c.K, c.beta
+    f, a = force(delta, w, beta * K, c.n, c.mu, c.b, None, 0.0)  # no yield (equations.force)
     F = K * f
     drive = F * ep * v
     return (
         vy + beta * F,
-        F / m - g,
+        F / c.m - c.g,
         -beta * F,
         F,
         K * (f - a) * (w - beta * F),
@@ -77,7 +115,7 @@ def rates(z, vy, s, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - 
 
 @compiled(inline="always")
 def step5(y, h, k1, k3, k4, k5, k6):  # pragma: no cover - compiled
-    """One component's fifth-order solution ``y + h sum_i B_i k_i``."""
+    """A component's fifth-order solution ``y + h sum_i B_i k_i``."""
     return y + h * (B1 * k1 + B3 * k3 + B4 * k4 + B5 * k5 + B6 * k6)
 
 
@@ -89,11 +127,10 @@ def error4(h, k1, k3, k4, k5, k6, k7):  # pragma: no cover - compiled
 
 @compiled(inline="always")
 def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - compiled
-    """The step's error relative to the tolerance (``err_z``, ``err_v`` over ``sc_z``, ``sc_v``) and
-    the next step (s) after ``hh`` (s): ``hh min(5, 0.9 err^-0.2)`` if accepted, ``hh max(0.2,
-    0.9 err^-0.2)`` if not (Hairer, Norsett & Wanner II.4). An error so small that the next step
-    is the largest allowed, ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``), is found with products
-    alone and returned as 0."""
+    """The step's error over the tolerance (``err_z``, ``err_v`` over ``sc_z``, ``sc_v``) and the
+    next step (s) after ``hh``: ``hh min(5, 0.9 err^-0.2)`` if accepted, ``hh max(0.2, 0.9
+    err^-0.2)`` if not (Hairer, Norsett & Wanner II.4); an error small enough for the largest
+    step ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``) is found by products alone, returned 0."""
     r = hh * grow
     reach = max(r * r * r * r * r, TINY_ERROR)
     if abs(err_z) <= reach * sc_z and abs(err_v) <= reach * sc_v:
@@ -106,10 +143,9 @@ def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - co
 
 @compiled()
 def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
-    """The first time in ``(a, b]`` (s) where the cubic ``P(t) = p0 + p1 t + p2 t^2 + p3 t^3`` (the
-    penetration along a flight, m) reaches 0, given ``P(a) < 0``, within ``tol`` (s) before it;
-    -1.0 if none. ``P`` is monotone between its critical points, so the first of them (or ``b``)
-    where ``P >= 0`` brackets the root, which bisection narrows."""
+    """The first time in ``(a, b]`` (s) where the penetration ``P(t) = p0 + p1 t + p2 t^2 + p3 t^3``
+    (m) reaches 0, given ``P(a) < 0``, within ``tol`` (s) before it; -1.0 if none: the first
+    critical point (or ``b``) where ``P >= 0`` brackets it, bisection narrows it."""
     # the critical points: roots of 3 p3 t^2 + 2 p2 t + p1
     c1 = c2 = b
     qa, qb = 3.0 * p3, 2.0 * p2
@@ -144,11 +180,11 @@ def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
 
 @compiled()
 def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
-    """The ball's parabolic flight from ``s`` (m), height ``z`` (m), vertical speed ``vy`` (m/s) at
-    ``v`` (m/s) under ``g`` (m/s^2): the time (s) it flies, to the first contact (``tol`` s or
-    less before it) or at most ``span`` (s), and whether it lands. Over each spline piece the
-    penetration is a cubic in ``t``; a piece where it stays below its chord's larger end plus
-    ``max |P''| L^2 / 8`` has no contact, on the others :func:`first_contact` finds the root."""
+    """The parabolic flight from ``s`` (m), height ``z`` (m), vertical speed ``vy`` (m/s) at ``v``
+    (m/s) under ``g`` (m/s^2): how long (s) it flies, to the first contact (``tol`` s before) or
+    at most ``span`` (s), and whether it lands. Over each spline piece the penetration is a
+    cubic in ``t``, without contact where below its chord's larger end plus ``max |P''| L^2 /
+    8``, else :func:`first_contact` finds the root."""
     n = env.shape[0]
     i = spline_piece(n, dx, s)
     a = 0.0
@@ -178,17 +214,24 @@ def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
         i += 1
 
 
+@compiled(inline="always")
+def _store(y, z, vy, u, imp, loss, plate, drive, gross, s):  # pragma: no cover - compiled
+    """The integrator's scalars back into the state ``y``."""
+    y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
+    y[LOSS], y[PLATE], y[DRIVE], y[GROSS] = loss, plate, drive, gross
+
+
 @compiled()
 def roll(
-    y, h, env, dx, speeds, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max,
-    max_steps, force_out, min_penetration, path_out,
-):  # fmt: skip  # pragma: no cover - compiled
-    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s), steps of at
-    most ``h_max`` (s), over the periods of ``1 / samplerate`` s at the speeds ``speeds`` (m/s);
-    write each period's mean force (N), smallest penetration at its steps' ends (m) and path
-    coordinate at its start (m). Each period starts at its own time 0, so a rolling cut at sample
-    boundaries gives the bits of one call. Returns ``(status, steps, rejected, flights, h)``,
-    ``h`` the next step."""
+    y, h, env, dx, speeds, c, max_steps, force_out, min_penetration, path_out
+):  # pragma: no cover - compiled
+    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s) under the
+    :class:`Constants` ``c`` over the periods of ``1 / samplerate`` s at the speeds ``speeds``
+    (m/s); write each period's mean force (N), smallest penetration at its steps' ends (m) and
+    path coordinate at its start (m). Each period starts at its own time 0, so a rolling cut at
+    sample boundaries gives the bits of one call. Returns ``(status, steps, rejected, flights,
+    h)``, ``h`` the next step."""
+    g, samplerate, rtol, delta_ref, h_max = c.g, c.samplerate, c.rtol, c.delta_ref, c.h_max
     n_samples = force_out.shape[0]
     period = 1.0 / samplerate
     atol_z = rtol * delta_ref
@@ -210,7 +253,7 @@ def roll(
         # the first stage: that of the last step's end (the same bits) unless the speed changed
         if j == 0 or speeds[j] != v:
             v = speeds[j]
-            z1, v1, u1, i1, l1, p1, d1, g1, _ = rates(z, vy, s, env, dx, v, m, K, n, mu, b, beta, g)
+            z1, v1, u1, i1, l1, p1, d1, g1, _ = rates(z, vy, s, env, dx, v, c)
         path_out[j] = s
         imp = 0.0
         d_min = d_prev
@@ -223,9 +266,7 @@ def roll(
                 tau, landing = flight(env, dx, s, z, vy, v, g, remaining, root_tol)
                 z, vy, s = z + (vy - 0.5 * g * tau) * tau, vy - g * tau, s + v * tau
                 t = t + tau if tau < remaining else period
-                z1, v1, u1, i1, l1, p1, d1, g1, d_prev = rates(
-                    z, vy, s, env, dx, v, m, K, n, mu, b, beta, g
-                )
+                z1, v1, u1, i1, l1, p1, d1, g1, d_prev = rates(z, vy, s, env, dx, v, c)
                 if d_prev < d_min:
                     d_min = d_prev
                 continue
@@ -234,44 +275,36 @@ def roll(
             last = h >= remaining
             hh = remaining if last else h
             if hh <= 1e-12 * period:
-                y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
-                y[LOSS], y[PLATE], y[DRIVE], y[GROSS] = loss, plate, drive, gross
+                _store(y, z, vy, u, imp, loss, plate, drive, gross, s)
                 return STEP_TOO_SMALL, steps, rejected, flights, h
             # the stages (s' = v: its increments are those of the other components' form)
             z2, v2, u2, i2, l2, p2, d2, g2, _ = rates(
-                z + hh * A21 * z1, vy + hh * A21 * v1, s + hh * A21 * v,
-                env, dx, v, m, K, n, mu, b, beta, g,
-            )  # fmt: skip
+                z + hh * A21 * z1, vy + hh * A21 * v1, s + hh * A21 * v, env, dx, v, c
+            )
             z3, v3, u3, i3, l3, p3, d3, g3, _ = rates(
                 z + hh * (A31 * z1 + A32 * z2),
                 vy + hh * (A31 * v1 + A32 * v2),
-                s + hh * (A31 * v + A32 * v),
-                env, dx, v, m, K, n, mu, b, beta, g,
+                s + hh * (A31 * v + A32 * v), env, dx, v, c,
             )  # fmt: skip
             z4, v4, u4, i4, l4, p4, d4, g4, _ = rates(
                 z + hh * (A41 * z1 + A42 * z2 + A43 * z3),
                 vy + hh * (A41 * v1 + A42 * v2 + A43 * v3),
-                s + hh * (A41 * v + A42 * v + A43 * v),
-                env, dx, v, m, K, n, mu, b, beta, g,
+                s + hh * (A41 * v + A42 * v + A43 * v), env, dx, v, c,
             )  # fmt: skip
             z5, v5, u5, i5, l5, p5, d5, g5, _ = rates(
                 z + hh * (A51 * z1 + A52 * z2 + A53 * z3 + A54 * z4),
                 vy + hh * (A51 * v1 + A52 * v2 + A53 * v3 + A54 * v4),
-                s + hh * (A51 * v + A52 * v + A53 * v + A54 * v),
-                env, dx, v, m, K, n, mu, b, beta, g,
+                s + hh * (A51 * v + A52 * v + A53 * v + A54 * v), env, dx, v, c,
             )  # fmt: skip
             z6, v6, u6, i6, l6, p6, d6, g6, _ = rates(
                 z + hh * (A61 * z1 + A62 * z2 + A63 * z3 + A64 * z4 + A65 * z5),
                 vy + hh * (A61 * v1 + A62 * v2 + A63 * v3 + A64 * v4 + A65 * v5),
-                s + hh * (A61 * v + A62 * v + A63 * v + A64 * v + A65 * v),
-                env, dx, v, m, K, n, mu, b, beta, g,
+                s + hh * (A61 * v + A62 * v + A63 * v + A64 * v + A65 * v), env, dx, v, c,
             )  # fmt: skip
             z_new = step5(z, hh, z1, z3, z4, z5, z6)
             vy_new = step5(vy, hh, v1, v3, v4, v5, v6)
             s_new = step5(s, hh, v, v, v, v, v)
-            z7, v7, u7, i7, l7, p7, d7, g7, d_new = rates(
-                z_new, vy_new, s_new, env, dx, v, m, K, n, mu, b, beta, g
-            )
+            z7, v7, u7, i7, l7, p7, d7, g7, d_new = rates(z_new, vy_new, s_new, env, dx, v, c)
             err_z = error4(hh, z1, z3, z4, z5, z6, z7)
             err_v = error4(hh, v1, v3, v4, v5, v6, v7)
             sc_z = atol_z + rtol * max(abs(d_prev), abs(d_new))
@@ -279,8 +312,7 @@ def roll(
             err, proposed = control(hh, err_z, err_v, sc_z, sc_v, grow, h_max)
             steps += 1
             if steps > max_steps:
-                y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
-                y[LOSS], y[PLATE], y[DRIVE], y[GROSS] = loss, plate, drive, gross
+                _store(y, z, vy, u, imp, loss, plate, drive, gross, s)
                 return MAX_STEPS, steps, rejected, flights, h
             if err <= 1.0:
                 t = period if last else t + hh
@@ -305,8 +337,7 @@ def roll(
                 h = proposed
         force_out[j] = imp * samplerate
         min_penetration[j] = d_min
-    y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
-    y[LOSS], y[PLATE], y[DRIVE], y[GROSS] = loss, plate, drive, gross
+    _store(y, z, vy, u, imp, loss, plate, drive, gross, s)
     return OK, steps, rejected, flights, h
 
 
@@ -319,19 +350,17 @@ LEFT_PLATE = 2
 @compiled()
 def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
     """A bound (m) of the centre's travel over the first ``count`` of the monotone ``planned``
-    speeds (m/s) from ``x`` (m), with far more than the float sums' rounding: a block it keeps
-    short of the edge needs no cumulative sum."""
+    speeds (m/s) from ``x`` (m), far above the sums' rounding: within it no cumulative sum."""
     travel = count * max(planned[0], planned[count - 1]) / samplerate
     return travel + 1e-9 * (travel + abs(x))
 
 
 @compiled()
 def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cover - compiled
-    """The speeds (m/s) of the next block of at most ``count`` periods into ``out``, from ``v``
-    (m/s) under ``decel`` (m/s^2), for a centre at ``x`` (m): how many, and how the block ends,
-    cut at the stop (:data:`STOPPED`) or where the centre passes ``x_end`` (m,
-    :data:`LEFT_PLATE`), else :data:`RUNNING`. The speeds fall and the positions rise, so each
-    cut is the first period past it."""
+    """The speeds (m/s) of the next block of at most ``count`` periods into ``out`` from ``v`` (m/s)
+    under ``decel`` (m/s^2), the centre at ``x`` (m): how many, and how it ends, cut at the stop
+    (:data:`STOPPED`) or where the centre passes ``x_end`` (m, :data:`LEFT_PLATE`), else
+    :data:`RUNNING`."""
     end = RUNNING
     for k in range(count):
         out[k] = v - decel * (k + 0.5) / samplerate
@@ -353,33 +382,32 @@ def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cove
 
 @compiled()
 def roll_blocks(
-    y, h, env, dx, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max,
-    max_steps_per_sample, v, decel, block, n_max, x_end, kinetic_mass, resistance_force,
-    force_out, centre_out, speed_out, min_penetration, tallies,
-):  # fmt: skip  # pragma: no cover - compiled
+    y, h, env, dx, c, d, v, n_max, out, min_penetration, tallies
+):  # pragma: no cover - compiled
     """A path's rolling (:mod:`synth.physics.path`) from ``y`` (updated in place) and step ``h`` (s)
-    at ``v`` (m/s), in blocks of ``block`` periods, at most ``n_max``: each block's speeds fall
-    by ``decel`` (m/s^2, :func:`block_speeds`, cut at ``x_end``, m), :func:`roll` integrates it,
-    and the kinetic energy ``kinetic_mass v^2`` (J, kg) loses the roughness' work. Writes each
-    period's force (N), centre (m) and speed (m/s) into ``force_out``, ``centre_out``,
-    ``speed_out``; adds the contact's loss, the plate's energy, the work of ``resistance_force``
-    (N) and the roughness' (J) to ``tallies[0:4]``. Returns ``(status, end, periods, h, v,
-    flights)``."""
+    at ``v`` (m/s) under the :class:`Constants` ``c``, in blocks of ``d.block`` periods, at most
+    ``n_max``: each block's speeds fall by ``d.decel`` (:class:`Drive`; :func:`block_speeds`, cut
+    at ``d.x_end``), :func:`roll` integrates it, and the kinetic energy ``d.kinetic_mass v^2``
+    (J) loses the roughness' work. Writes each period's force (N), centre (m) and speed (m/s)
+    into the rows of ``out`` (3, n_max); adds the contact's loss, the plate's energy, the work
+    of the resistance and the roughness' (J) to ``tallies[0:4]``. Returns ``(status, end,
+    periods, h, v, flights)``."""
+    samplerate = c.samplerate
+    force_out, centre_out, speed_out = out[0], out[1], out[2]
     done = 0
     end = RUNNING
     flights = 0
     while done < n_max:
-        speeds = speed_out[done : done + min(block, n_max - done)]
-        count, end = block_speeds(v, decel, speeds.size, samplerate, y[S], x_end, speeds)
+        speeds = speed_out[done : done + min(d.block, n_max - done)]
+        count, end = block_speeds(v, d.decel, speeds.size, samplerate, y[S], d.x_end, speeds)
         if count == 0:
             break
         speeds = speeds[:count]
         loss, plate, drive = y[LOSS], y[PLATE], y[DRIVE]
         centres = centre_out[done : done + count]
         status, _, _, lost, h = roll(
-            y, h, env, dx, speeds, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref,
-            h_max, max_steps_per_sample * count, force_out[done : done + count],
-            min_penetration[:count], centres,
+            y, h, env, dx, speeds, c, MAX_STEPS_PER_SAMPLE * count,
+            force_out[done : done + count], min_penetration[:count], centres,
         )  # fmt: skip
         if status != OK:
             return status, end, done, h, v, flights
@@ -390,13 +418,13 @@ def roll_blocks(
         work = y[DRIVE] - drive
         tallies[0] += y[LOSS] - loss
         tallies[1] += y[PLATE] - plate
-        tallies[2] += resistance_force * (travel / samplerate)
+        tallies[2] += d.resistance_force * (travel / samplerate)
         tallies[3] += work
         flights += lost
         done += count
-        v_end = v - decel * count / samplerate
-        kinetic = kinetic_mass * v_end * abs(v_end) - work
-        v = math.sqrt(max(kinetic, 0.0) / kinetic_mass)
+        v_end = v - d.decel * count / samplerate
+        kinetic = d.kinetic_mass * v_end * abs(v_end) - work
+        v = math.sqrt(max(kinetic, 0.0) / d.kinetic_mass)
         if end != RUNNING:
             break
         if kinetic <= 0.0:
@@ -407,8 +435,8 @@ def roll_blocks(
 
 @compiled()
 def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
-    """The touching points' path coordinates (m) of the centres ``centres`` (m) into ``out``: each
-    plus the envelope's ``offsets`` (m, every ``spacing`` m) interpolated linearly, held beyond
+    """The touching points' path coordinates (m) of ``centres`` (m) into ``out`` (may be
+    ``centres``): each plus the ``offsets`` (m, every ``spacing`` m) interpolated, held beyond
     the ends; numpy's ``interp`` to the bit."""
     last = offsets.shape[0] - 1
     for k in range(centres.shape[0]):
@@ -434,8 +462,8 @@ def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compi
 
 @compiled()
 def node_reach(offsets, spacing, first, last):  # pragma: no cover - compiled
-    """The least and the largest touching point ``i spacing + offsets[i]`` (m) of the
-    envelope's samples ``first <= i <= last`` (``inf, -inf`` if none)."""
+    """The least and largest touching point ``i spacing + offsets[i]`` (m), ``first <= i <= last``
+    (``inf, -inf`` if none)."""
     lo, hi = math.inf, -math.inf
     for i in range(max(first, 0), min(last, offsets.shape[0] - 1) + 1):
         x = i * spacing + offsets[i]

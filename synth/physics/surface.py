@@ -1,15 +1,9 @@
 """A plate's surface along a ball's path: its roughness profile and the envelope a ball rides
-(docs/rolling.md, "The surface").
-
-* :func:`rough_profile`: a seeded zero-mean profile with the Matern (von Karman) spectrum of
-  :class:`RoughnessSpectrum` (``sigma``, ``xi``, Hurst ``H``: self-affine above ``1/xi``, flat
-  below; Matern 1960; Rasmussen & Williams 2006, eqs. 4.14-4.15; Persson et al. 2005, J.
-  Phys.: Condens. Matter 17, R1), by spectral synthesis.
-* :func:`sinusoidal_profile`: ``A sin(k x + phase)``, for the closed-form checks.
-* :data:`MEASURED_ROUGHNESS`: the surfaces with a published roughness measurement.
-* :func:`contact_envelope`: the lowest point of a rigid sphere of radius ``R`` over ``s``,
-  ``e(s) = max_x [h(x) - (R - sqrt(R^2 - (x - s)^2))]``, the profile dilated by the
-  sphere's cap: it bridges dips narrower than the ball.
+(docs/rolling.md, "The surface"): :func:`rough_profile` (the Matern spectrum of
+:class:`RoughnessSpectrum`; Matern 1960; Rasmussen & Williams 2006, eqs. 4.14-4.15; Persson et
+al. 2005, J. Phys.: Condens. Matter 17, R1), :func:`sinusoidal_profile` (for the closed-form
+checks), :data:`MEASURED_ROUGHNESS`, and :func:`contact_envelope`, the lowest point of a sphere of
+radius ``R`` over ``s``, ``e(s) = max_x [h(x) - (R - sqrt(R^2 - (x - s)^2))]``.
 """
 
 from __future__ import annotations
@@ -26,20 +20,18 @@ from synth import checks
 from synth.compilation import compiled
 from synth.errors import ParameterError
 
-#: Most samples of a profile (a 10 m path at 1 um spacing), to keep its arrays in memory.
+#: Most samples of a profile (a 10 m path at 1 um spacing).
 MAX_PROFILE_SAMPLES = 10_000_000
-#: Correlation lengths of padding between a rough profile's end and, around its periodic
-#: synthesis domain, its start: the Matern correlation at that lag is below 1e-6 for every
-#: ``H <= 1``, so the periodic synthesis does not correlate the profile's two ends.
+#: Correlation lengths of padding around a rough profile's periodic synthesis domain: the
+#: Matern correlation at that lag is below 1e-6 for every ``H <= 1``, so the ends are apart.
 PADDING_CORRELATION_LENGTHS = 16.0
-#: Newton iterations locating a summit's contact point between samples (quadratic
-#: convergence from within a sample of it: machine precision in about four).
+#: Newton iterations locating a summit's contact point between samples (quadratic convergence
+#: from within a sample: machine precision in about four).
 NEWTON_ITERATIONS = 6
 #: Samples per run whose highest point bounds the runs :func:`_best_samples` may skip.
 DILATION_BLOCK = 8
 #: Largest RMS height and correlation length of a roughness spectrum, m: the largest plate
-#: (:data:`synth.physics.scene.MAX_PLATE_SIZE`), as a roughness is a variation of a plate's
-#: surface; it also keeps ``sigma^2`` far from float64's overflow.
+#: (:data:`synth.physics.scene.MAX_PLATE_SIZE`); it keeps ``sigma^2`` far from overflow.
 MAX_ROUGHNESS_SCALE = 100.0
 
 
@@ -70,9 +62,8 @@ def samples(name: str, value, least: int, most: int, unit: str, nonnegative=Fals
 
 @dataclass(frozen=True, eq=False)
 class Profile:
-    """Heights ``h(x_i)`` of a surface along a straight path (m above the plate's nominal plane,
-    ``x_i = i spacing``; 4 to :data:`MAX_PROFILE_SAMPLES` finite values, kept read-only),
-    ``spacing`` (m) and a ``description`` of the model for reports."""
+    """Heights ``h(i spacing)`` (m above the plate's plane; 4 to :data:`MAX_PROFILE_SAMPLES`,
+    read-only) along a straight path, ``spacing`` (m) and a ``description`` for reports."""
 
     heights: np.ndarray
     spacing: float
@@ -129,9 +120,9 @@ SELF_AFFINE_HURST = 0.85
 
 @dataclass(frozen=True)
 class MeasuredRoughness:
-    """A surface's published roughness (docs/rolling.md, "Measured surfaces"): ``ra`` the profile's
-    ``Ra`` (ISO 4287), m, measured with the filter cut-off ``cutoff`` ``lambda_c``, m; the
-    ``source`` says where, and how any value not stated there was chosen."""
+    """A surface's published roughness (docs/rolling.md, "Measured surfaces"): ``Ra`` (ISO 4287,
+    m) at the filter cut-off ``lambda_c`` (m); ``source``: where, and how what it does not state
+    was chosen."""
 
     surface: str
     ra: float
@@ -145,8 +136,7 @@ class MeasuredRoughness:
 
     @property
     def correlation_length(self) -> float:
-        """``xi = lambda_c / (2 pi)``, m: the spectrum's knee at the filter's cut-off, so the
-        variance lies in the wavelengths the measurement held (none publishes the knee itself)."""
+        """``xi = lambda_c / (2 pi)``, m: the knee at the filter's cut-off (none publishes it)."""
         return self.cutoff / (2.0 * math.pi)
 
     def spectrum(self) -> RoughnessSpectrum:
@@ -154,8 +144,7 @@ class MeasuredRoughness:
         return RoughnessSpectrum(self.rms_height, self.correlation_length, SELF_AFFINE_HURST)
 
 
-#: The surfaces with a published roughness measurement, from ``roughness.toml`` (docs/rolling.md,
-#: "Measured surfaces").
+#: The surfaces with a published roughness measurement (``roughness.toml``).
 with open(Path(__file__).with_name("roughness.toml"), "rb") as _file:
     MEASURED_ROUGHNESS = {k: MeasuredRoughness(**row) for k, row in tomllib.load(_file).items()}
 
@@ -183,14 +172,12 @@ def _seed(seed) -> int:
 def rough_profile(
     spectrum: RoughnessSpectrum, *, length: float, spacing: float, seed: int
 ) -> Profile:
-    """A random profile with ``spectrum`` along ``length`` m, sampled every ``spacing`` m, from
-    the integer ``seed`` (numpy's PCG64).
-
-    Spectral synthesis on a periodic domain of ``M`` samples, ``P = M spacing`` (the path plus
-    :data:`PADDING_CORRELATION_LENGTHS` correlation lengths): ``h(x_j) = sum_m c_m exp(i k_m
-    x_j)``, ``k_m = 2 pi m / P``, independent complex Gaussian ``c_m = conj(c_-m)`` with ``E
-    |c_m|^2 = S(k_m) / P`` (real at Nyquist), ``c_0 = 0`` (zero mean); the first ``N`` samples
-    are the profile, of mean square :func:`expected_mean_square`."""
+    """A random profile with ``spectrum`` along ``length`` m every ``spacing`` m, from the integer
+    ``seed`` (numpy's PCG64): spectral synthesis on a periodic domain of ``M`` samples, ``P = M
+    spacing`` (the path and :data:`PADDING_CORRELATION_LENGTHS`), ``h(x_j) = sum_m c_m exp(i k_m
+    x_j)``, ``k_m = 2 pi m / P``, complex Gaussian ``c_m = conj(c_-m)``, ``E |c_m|^2 = S(k_m) /
+    P`` (real at Nyquist), ``c_0 = 0``; its first samples, of mean square
+    :func:`expected_mean_square`."""
     if not isinstance(spectrum, RoughnessSpectrum):
         raise ParameterError(f"spectrum={spectrum!r} must be a RoughnessSpectrum")
     L, dx, n = _check_grid(length, spacing)
@@ -227,8 +214,7 @@ def _synthesis_size(length: float, spacing: float, correlation_length: float) ->
 
 
 def expected_mean_square(spectrum: RoughnessSpectrum, *, length: float, spacing: float) -> float:
-    """Expected mean square height (m^2) of :func:`rough_profile`: ``sum_(m != 0) S(k_m) /
-    P`` over its grid's wavenumbers, ``sigma^2`` less those the grid does not hold."""
+    """Expected mean square height (m^2) of :func:`rough_profile`: ``sum_(m != 0) S(k_m) / P``."""
     L, dx, _ = _check_grid(length, spacing)
     m_total = _synthesis_size(L, dx, spectrum.correlation_length)
     k = 2.0 * math.pi * np.arange(1, m_total // 2 + 1) / (m_total * dx)
@@ -240,8 +226,8 @@ def expected_mean_square(spectrum: RoughnessSpectrum, *, length: float, spacing:
 def sinusoidal_profile(
     *, amplitude: float, wavelength: float, length: float, spacing: float, phase: float = 0.0
 ) -> Profile:
-    """``h(x) = amplitude sin(2 pi x / wavelength + phase)`` (m) along ``length`` metres,
-    sampled every ``spacing`` metres; ``phase`` in radians."""
+    """``amplitude sin(2 pi x / wavelength + phase)`` (m, rad) along ``length`` m every
+    ``spacing`` m."""
     A = checks.positive("amplitude", amplitude, "metres")
     lam = checks.positive("wavelength", wavelength, "metres")
     phi = checks.real("phase", phase, "rad")
@@ -261,12 +247,11 @@ def sinusoidal_profile(
 
 @dataclass(frozen=True, eq=False)
 class ContactEnvelope:
-    """What a sphere of ``radius`` ``R`` (m) resting on a :class:`Profile` touches: ``heights``
-    ``e(s_i)`` of its lowest point (m) with its centre above ``s_i = i spacing`` (m),
-    ``contact_offsets`` the touching point relative to ``s_i`` (m), the profile's
-    ``description``, and ``coefficients`` (N - 1, 4) of the not-a-knot cubic spline through
-    ``heights`` (C2, so the centripetal acceleration is resolved), piece ``i`` being ``sum_m
-    c[i, m] (s - s_i)^(3 - m)`` (:func:`envelope_at`)."""
+    """What a sphere of ``radius`` ``R`` (m) on a :class:`Profile` touches with its centre above
+    ``s_i = i spacing`` (m): its lowest point's ``heights`` ``e(s_i)`` (m), the touching point's
+    ``contact_offsets`` from ``s_i`` (m), and ``coefficients`` (N - 1, 4) of the not-a-knot
+    cubic spline through ``heights`` (C2: the centripetal acceleration is resolved;
+    :func:`envelope_at`)."""
 
     heights: np.ndarray
     contact_offsets: np.ndarray
@@ -282,10 +267,9 @@ class ContactEnvelope:
 
 
 def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
-    """The envelope ``e(s)`` a sphere of ``radius`` (m) rides on ``profile`` (its not-a-knot cubic
-    spline): at every sample the best ``h_j - (R - sqrt(R^2 - (x_j - s_i)^2))`` over the samples
-    within reach, refined by Newton's iteration on the spline between that sample's neighbours
-    (so the grid does not show in the curvature over a smooth summit)."""
+    """The envelope a sphere of ``radius`` (m) rides on ``profile``: at every sample the best
+    ``h_j - (R - sqrt(R^2 - (x_j - s_i)^2))`` within reach, refined by Newton's iteration on the
+    profile's spline between that sample's neighbours (no grid in a smooth summit's curvature)."""
     if not isinstance(profile, Profile):
         raise ParameterError(f"profile={profile!r} must be a Profile")
     R = checks.positive("radius", radius, "metres")
@@ -310,14 +294,14 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
 
 
 def _spline(x, y) -> np.ndarray:
-    """The coefficients (N - 1, 4) of the not-a-knot cubic spline through ``(x, y)``, read-only:
-    numba types read-only arrays apart, and every caller of :func:`envelope_at` passes one type."""
+    """The not-a-knot cubic spline's coefficients (N - 1, 4) through ``(x, y)``, read-only (as
+    every caller of :func:`envelope_at` passes them: one numba type)."""
     return read_only(np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T))
 
 
 def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
-    """The cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``k = -window .. window``,
-    ``+inf`` out of reach: the bits of evaluating it per pair of samples, once per offset."""
+    """The cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``|k| <= window``, ``+inf`` out
+    of reach."""
     d = np.arange(-window, window + 1) * dx
     q = R * R - d * d
     depths = np.full(d.size, np.inf)
@@ -328,10 +312,10 @@ def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
 
 @compiled()
 def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
-    """For every sample ``i``: ``best_i = max_j (h_j - caps[j - i + window])`` within ``window``
-    of it, and ``first_i`` the first ``j`` reaching it. Runs of :data:`DILATION_BLOCK` samples are
-    scanned from ``i`` outwards, and one is skipped whose top less the cap's least depth over it
-    is below the best so far (the depths grow with the offset): the full scan's bits."""
+    """For every sample ``i``: ``best_i = max_j (h_j - caps[j - i + window])`` and ``first_i`` the
+    first ``j`` reaching it. Runs of :data:`DILATION_BLOCK` samples are scanned from ``i``
+    outwards, skipping one whose top less the cap's least depth over it is below the best so far
+    (the full scan's bits)."""
     n = h.shape[0]
     window = (caps.shape[0] - 1) // 2
     B = DILATION_BLOCK
@@ -350,8 +334,7 @@ def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
         b_mid = i // B
         g_best = -np.inf
         jb = i
-        # the run holding i first, then outwards, nearer runs first: the best so far
-        # rises fast and the runs further out are skipped
+        # the run holding i first, then outwards: the best rises fast, far runs are skipped
         for r in range(2 * max(b_mid - b_lo, b_hi - b_mid) + 1):
             b = b_mid + (r + 1) // 2 if r % 2 == 1 else b_mid - r // 2
             if b < b_lo or b > b_hi:
@@ -377,9 +360,9 @@ def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
 
 @compiled()
 def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compiled
-    """``e_i = max_x (h(x) - cap(x - s_i))`` over the profile's spline (``coefficients``): the best
-    sample (:func:`_best_samples`), then Newton's iteration on ``h'(x) - (x - s_i) / sqrt(R^2 -
-    (x - s_i)^2) = 0`` within its neighbours; ``off_i`` the maximiser's offset, m."""
+    """``e_i = max_x (h(x) - cap(x - s_i))`` on the profile's spline: the best sample, then Newton
+    on ``h'(x) - (x - s_i) / sqrt(R^2 - (x - s_i)^2) = 0`` within its neighbours; ``off_i`` the
+    maximiser's offset, m."""
     n = h.shape[0]
     R2 = R * R
     bests = np.empty(n)
@@ -421,8 +404,7 @@ def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compile
 
 @compiled()
 def spline_piece(n, dx, s):  # pragma: no cover - compiled
-    """The piece of a spline of ``n`` pieces of length ``dx`` (m) holding ``s`` (m): the
-    first or the last beyond its ends."""
+    """The piece of ``n`` of length ``dx`` (m) holding ``s`` (m), the first or last beyond."""
     i = int(math.floor(s / dx))
     if i < 0:
         return 0

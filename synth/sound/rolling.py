@@ -1,40 +1,20 @@
-"""The plate's modes driven by a rolling contact's force at a moving point.
+"""The plate's modes driven by a rolling contact's force at a moving point (docs/rolling.md, "The
+force as a signal", "Rendering a path").
 
-A force ``F(t)`` at the moving point ``x(t)`` drives each mode ``k`` (pole ``p_k = -sigma_k
-+ i omega_dk``, shape ``phi_k``, modal mass ``M_k``; docs/physics.md, "Modal synthesis"):
+A force ``F`` at the moving point ``x(t)`` drives each mode (pole ``p_k``, shape ``phi_k``, modal
+mass ``M_k``) as ``zeta_k' = p_k zeta_k + b_k F``, ``b_k = phi_k(x(t)) / M_k``; the listener hears
+``sum_k Re[output_k (-i zeta_k / omega_dk)]`` (``output_k`` as :func:`synth.sound.modal_bank.
+synthesize`; an accelerometer also the direct term ``phi_k(xp) b_k F``). The force is the contact's
+mean over each sample period, held over it, so ``zeta_k <- e^(p_k / fs) zeta_k + b_k F_j (e^(p_k /
+fs) - 1) / p_k`` is exact; the direct term at the step ``F_(j-1) -> F_j`` takes the mean of both.
+``b_k`` is tabulated along the path (:func:`path_excitation`, :data:`POINTS_PER_WAVELENGTH` rows
+per bending wavelength of the highest mode: relative error at most ``(k_b step)^2 / 8``) and
+interpolated linearly.
 
-    q_k'' + 2 sigma_k q_k' + omega_k^2 q_k = b_k(t) F(t),     b_k(t) = phi_k(x(t)) / M_k
-
-With ``zeta_k' = p_k zeta_k + b_k F`` the mode is ``q_k = Im(zeta_k) / omega_dk``, and a
-listener hears ``sum_k Re[output_k (-i zeta_k / omega_dk)]`` (``output_k`` as in
-:func:`synth.sound.modal_bank.synthesize`: ``G_k p_k`` for a microphone, ``phi_k(xp)
-p_k^2`` for an accelerometer, which also hears the direct term ``phi_k(xp) b_k F``).
-
-The force is the rolling contact's mean over each sample period
-(:class:`synth.physics.rolling.RollingContact`), held over that period: then
-
-    zeta_k(t_(j+1)) = e^(p_k / fs) zeta_k(t_j) + b_k F_j (e^(p_k / fs) - 1) / p_k
-
-is exact. Against the true force, a sinusoid of angular frequency ``w`` reaches every mode
-scaled by ``sinc(w / (2 fs))^2`` (the period's mean, then the hold; ``1 - (w / fs)^2 / 12``
-for ``w << fs``), with no delay, plus images at ``2 pi m fs +- w`` which a mode below
-Nyquist hears only off resonance. An accelerometer's direct term at ``t_j``, where the held
-force steps from ``F_(j-1)`` to ``F_j``, takes the mean of the two (before the first
-period: the ``preload``): a sinusoid reaches it scaled by ``sinc(w / (2 fs)) cos(w / (2 fs))``.
-
-``b_k`` along the path: the mode shapes are evaluated on the path every ``step`` metres
-(:func:`path_excitation`; by default :data:`POINTS_PER_WAVELENGTH` points per bending
-wavelength of the highest mode) and interpolated linearly: relative error at most
-``(k_b step)^2 / 8`` of a mode's largest value (``k_b`` its bending wavenumber; 5e-3 at 32
-points per wavelength).
-
-A ball released with a horizontal velocity (:func:`render_path_audio`; docs/rolling.md,
-"Rendering a path"): the plate is linear, so the signal is the sum of its responses to the
-bounces' pulses (:func:`synth.sound.modal_bank.synthesize`, each impact exciting the modes at
-its own point), to the rolling's force (:func:`drive_modes` from the plate at rest, on the
-modes that may exceed their share of the floor under the bounces' peak) and, after the
-rolling, to the force it leaves (a ball at rest's weight) held at its last point until every
-mode is below the floor (or ``max_tail``).
+A path (:func:`render_path_audio`): the plate is linear, so its signal is the bounces' pulses
+(:func:`synth.sound.modal_bank.synthesize`) plus the rolling's force (:func:`drive_modes`, on the
+modes that may exceed their share of the floor under the bounces' peak) plus the ringing under
+the force it leaves, held at its last point (until below the floor or ``max_tail``).
 """
 
 from __future__ import annotations
@@ -55,10 +35,9 @@ POINTS_PER_WAVELENGTH = 32
 
 @dataclass(frozen=True, eq=False)
 class PathExcitation:
-    """The modes' excitation along a straight path on the plate: ``excitation`` (P, K),
-    ``b_k = phi_k / M_k`` (1/kg) at the path coordinates ``start + i step`` (m), and
-    ``direct`` (P, K), an accelerometer's direct term ``phi_k(xp) b_k`` (m/s^2 per N) there
-    (None for a microphone)."""
+    """``excitation`` (P, K) ``b_k = phi_k / M_k`` (1/kg) along a straight path at its coordinates
+    ``start + i step`` (m), and ``direct`` (P, K) an accelerometer's ``phi_k(xp) b_k`` (m/s^2 per
+    N) there (None for a microphone)."""
 
     start: float
     step: float
@@ -73,20 +52,22 @@ class PathExcitation:
         )
 
 
-def bending_wavenumber(plate, angular_frequency: float) -> float:
-    """``k_b = (omega^2 rho h / D)^(1/4)`` (rad/m) of a thin plate at ``angular_frequency``
-    (rad/s)."""
-    w = checks.nonnegative("angular_frequency", angular_frequency, "rad/s")
-    return (w * w * plate.surface_density / plate.flexural_rigidity) ** 0.25
+def table_step(model) -> float:
+    """The default row spacing (m) of a modal model's :func:`path_excitation`:
+    :data:`POINTS_PER_WAVELENGTH` rows per bending wavelength of its highest rendered mode, the
+    thin plate's ``k_b = (omega^2 rho h / D)^(1/4)`` (rad/m); 1 m without modes."""
+    w = float(np.max(np.abs(model.poles.imag))) if model.poles.size else 0.0
+    plate = model.modes.plate
+    k_b = (w * w * plate.surface_density / plate.flexural_rigidity) ** 0.25
+    return 2.0 * math.pi / (POINTS_PER_WAVELENGTH * k_b) if k_b > 0.0 else 1.0
 
 
 def path_excitation(
     model, *, origin, direction, start: float, stop: float, step: float | None = None
 ) -> PathExcitation:
-    """:class:`PathExcitation` of a :class:`synth.sound.render.ModalModel` along the path
-    ``origin + s * direction`` (m; ``direction`` a unit vector) for ``start <= s <= stop``
-    (m), rows every ``step`` m (default: :data:`POINTS_PER_WAVELENGTH` per bending
-    wavelength of the highest rendered mode)."""
+    """:class:`PathExcitation` of a :class:`synth.sound.render.ModalModel` along ``origin + s
+    direction`` (m, unit ``direction``) for ``start <= s <= stop`` (m), rows every ``step`` m
+    (default :func:`table_step`)."""
     ox, oy = checks.point("origin", origin, 2)
     ux, uy = checks.point("direction", direction, 2, "dimensionless")
     if not abs(math.hypot(ux, uy) - 1.0) <= 1e-12:
@@ -95,13 +76,7 @@ def path_excitation(
     s1 = checks.real("stop", stop, "metres")
     if not s1 >= s0:
         raise ParameterError(f"stop={stop!r} must be >= start={start!r} (metres)")
-    plate = model.modes.plate
-    if step is None:
-        w_max = float(np.max(np.abs(model.poles.imag))) if model.poles.size else 0.0
-        k_b = bending_wavenumber(plate, w_max)
-        ds = 2.0 * math.pi / (POINTS_PER_WAVELENGTH * k_b) if k_b > 0.0 else s1 - s0
-    else:
-        ds = checks.positive("step", step, "metres")
+    ds = table_step(model) if step is None else checks.positive("step", step, "metres")
     rows = max(2, int(math.ceil((s1 - s0) / ds)) + 1) if ds > 0.0 else 2
     ds = (s1 - s0) / (rows - 1) if s1 > s0 else 1.0
     s = s0 + ds * np.arange(rows)
@@ -123,9 +98,8 @@ def _contact_table(model, rolling, origin, direction) -> PathExcitation:
 
 @dataclass(eq=False)
 class ModeState:
-    """The modes' state between two calls of :func:`drive_modes` (updated in place by it):
-    ``zeta`` (K,) complex, m/s (module docstring), and ``previous``, the force of the last
-    period driven, N (an accelerometer's direct term takes the mean of it and the next)."""
+    """The modes' ``zeta`` (K,) complex, m/s, and the last period's force ``previous`` (N) between
+    two calls of :func:`drive_modes` (updated in place by it)."""
 
     zeta: np.ndarray
     previous: float = 0.0
@@ -147,14 +121,13 @@ def drive_modes(
     preload: float = 0.0,
     state: ModeState | None = None,
 ) -> np.ndarray:
-    """The listener's signal (N,) at the sample times ``j / samplerate`` (Pa or m/s^2) of
-    the modes of poles ``poles`` (K,) (rad/s, below Nyquist) and listener gains ``output``
-    (K,) (as :func:`synth.sound.modal_bank.synthesize`) driven by ``force`` (N,), the mean
-    over each sample period (N), at the path coordinates ``coordinate`` (N,) (m, within
-    ``path``'s table). ``preload``: the force on the plate before the first period (N; the
-    modes start in their static deflection ``zeta_k = -b_k F / p_k``). ``state``: start
-    where an earlier call left the modes instead (``preload`` then 0) and leave the end's
-    state in it, so that consecutive calls give the signal of one call."""
+    """The listener's signal (N,) at ``j / samplerate`` (Pa or m/s^2) of the modes of ``poles``
+    (K,) (rad/s, below Nyquist) and gains ``output`` (K,) (as :func:`synth.sound.modal_bank.
+    synthesize`) driven by ``force`` (N,), each period's mean (N), at the path coordinates
+    ``coordinate`` (N,) (m, within ``path``'s table). ``preload``: the force before the first
+    period (N; the modes start in their static deflection ``-b_k F / p_k``). ``state``: start
+    where an earlier call left the modes (``preload`` then 0) and leave the end's state in it:
+    consecutive calls give the signal of one call."""
     fs = checks.samplerate(samplerate)
     F = np.ascontiguousarray(force, dtype=float)
     c = np.ascontiguousarray(coordinate, dtype=float)
@@ -224,9 +197,8 @@ def drive_modes(
 
 @dataclass
 class _Heard:
-    """Modes as a listener hears them, for :func:`_drive` (complex (K,) each): one
-    sample's ``ringing`` ``e_k``, the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the
-    ``state`` ``w_k`` (each mode's part of the signal is ``Re w_k``)."""
+    """Modes as heard, for :func:`_drive` (complex (K,) each): one sample's ``ringing`` ``e_k``,
+    the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the ``state`` ``w_k`` (heard: ``Re w_k``)."""
 
     ringing: np.ndarray
     gain: np.ndarray
@@ -234,8 +206,8 @@ class _Heard:
 
 
 def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
-    """:func:`_drive` of ``modes`` (``table`` their ``b_k`` along the path) into ``out``;
-    returns the modes' final ``w_k``."""
+    """:func:`_drive` of ``modes`` (``table``: their ``b_k``) into ``out``; returns the final
+    ``w_k``."""
     wr = np.ascontiguousarray(modes.state.real)
     wi = np.ascontiguousarray(modes.state.imag)
     e, g = modes.ringing, modes.gain
@@ -250,11 +222,10 @@ def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
                 preload: float = 0.0, state: ModeState | None = None) -> np.ndarray:  # fmt: skip
-    """A bound (K,) of each mode's part of :func:`drive_modes`' signal at every sample (its
-    units), for the same arguments: with ``G_k`` the largest ``|b_k|`` of the table times
-    the largest ``|F|``, the recursion gives ``|zeta_k(t_j)| <= |zeta_k(0)| + |h_k| G_k /
-    (1 - |e_k|)`` (a geometric series; ``e_k = e^(p_k / fs)``, ``h_k`` the hold's gain),
-    heard at most ``|l_k|`` times, plus an accelerometer's largest ``|F| |phi_k(xp) b_k|``."""
+    """A bound (K,) of each mode's part of :func:`drive_modes`' signal at every sample, for the same
+    arguments: ``|zeta_k| <= |zeta_k(0)| + |h_k| G_k / (1 - |e_k|)`` (a geometric series; ``G_k``
+    the largest ``|b_k| |F|``, ``e_k = e^(p_k / fs)``, ``h_k`` the hold's gain), heard at most
+    ``|l_k|`` times, plus an accelerometer's largest ``|F| |phi_k(xp) b_k|``."""
     fs = checks.samplerate(samplerate)
     p = np.asarray(poles, dtype=complex)
     F = np.asarray(force, dtype=float)
@@ -278,10 +249,8 @@ def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
 
 def audible_modes(force, path: PathExcitation, poles, output, samplerate, *, floor: float,
                   reference: float, preload: float = 0.0) -> np.ndarray:  # fmt: skip
-    """The mask (K,) of the modes whose :func:`mode_bounds` may exceed their share of the
-    omission budget ``floor * reference`` (a fraction, an amplitude in the signal's units)
-    by the modal bank's rule (:func:`synth.sound.modal_bank.kept_modes`): the modes left out
-    add up to at most ``floor * reference`` at every sample."""
+    """The mask (K,) of the modes whose :func:`mode_bounds` may exceed their share of ``floor *
+    reference`` (a fraction, an amplitude) by :func:`synth.sound.modal_bank.kept_modes`' rule."""
     f = checks.nonnegative("floor", floor, "dimensionless")
     ref = checks.nonnegative("reference", reference, "the signal's units")
     bounds = mode_bounds(force, path, poles, output, samplerate, preload=preload)
@@ -298,8 +267,8 @@ def _row_at(table, start, step, coordinate) -> np.ndarray:
 
 @compiled(inline="always")
 def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
-    """The table's interval ``i`` holding ``coordinate`` (m; the first or the last beyond
-    the table's ends) and the fraction ``t`` of the way through it."""
+    """The table's interval ``i`` holding ``coordinate`` (m; the first or the last beyond its
+    ends) and the fraction ``t`` through it."""
     u = (coordinate - start) / step
     i = int(math.floor(u))
     if i < 0:
@@ -311,9 +280,8 @@ def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
 
 @compiled(inline="always", sums=True, nogil=True)
 def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
-    """One sample of the recursion of the module docstring for every mode ``zr + i zi`` (in
-    place), driven by the held force at the shape ``wa row_a + wb row_b`` (N): returns what
-    the listener (response ``lr + i li``) hears at the period's start."""
+    """One sample of the module docstring's recursion for the modes ``zr + i zi`` (in place)
+    driven at ``wa row_a + wb row_b`` (N): what the listener (``lr + i li``) hears at its start."""
     acc = 0.0
     for k in range(er.shape[0]):
         acc += lr[k] * zr[k] - li[k] * zi[k]
@@ -326,8 +294,8 @@ def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
 
 @compiled(inline="always")
 def _direct_at(direct, i, t, F, previous):  # pragma: no cover - compiled
-    """An accelerometer's direct term at the fraction ``t`` of the table's interval ``i``:
-    the mean of the held forces ``previous`` and ``F`` (N) times the summed ``direct`` row."""
+    """An accelerometer's direct term at ``t`` of interval ``i``: the mean of ``previous`` and
+    ``F`` (N) times the summed ``direct`` row."""
     return 0.5 * (F + previous) * ((1.0 - t) * direct[i] + t * direct[i + 1])
 
 
@@ -343,9 +311,8 @@ def _interval_gains(row_a, row_b, gr, gi, ar, ai, br, bi):  # pragma: no cover -
 
 @compiled(inline="always")
 def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
-    """One sample period of the heard modes ``wr + i wi`` (in place), driven by the parts
-    ``fa`` and ``fb`` (N) of the held force on the interval's two rows: returns the signal
-    at its start."""
+    """One period of the heard modes ``wr + i wi`` (in place) driven by the parts ``fa``, ``fb``
+    (N) of the force on the interval's two rows; returns the signal at its start."""
     acc = 0.0
     for k in range(er.shape[0]):
         xr, xi = wr[k], wi[k]
@@ -385,8 +352,7 @@ def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - co
 
 @compiled(inline="always")
 def _ring_four_free(er, ei, wr, wi):  # pragma: no cover - compiled
-    """:func:`_ring_four` without force (the ball in flight): the modes ring on, their
-    drive adds nothing (the same bits: adding an exact zero rounds nothing)."""
+    """:func:`_ring_four` without force (the ball in flight; the same bits)."""
     s0 = s1 = s2 = s3 = 0.0
     for k in range(er.shape[0]):
         e_r, e_i = er[k], ei[k]
@@ -414,14 +380,12 @@ def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
     previous, out,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """The recursion of the module docstring for the heard modes ``w_k = l_k zeta_k``
-    (``wr + i wi``, in place; the signal ``sum_k Re w_k`` into ``out``): ``w_k <- e_k w_k
-    + g_k b_k F``, ``e_k = er + i ei``, ``g_k = l_k h_k = gr + i gi``, ``b_k`` interpolated
-    in ``table``; ``previous`` the force before the first period (N), ``direct`` the direct
-    term summed over the modes per row (``has_direct``). In an interval of the table the
-    gains of its two rows are worked out once, and four samples rung in one pass over the
-    modes (without the drive where the ball is in flight); each sample's operations are
-    those of a single sample's pass."""
+    """The module docstring's recursion for the heard modes ``w_k = l_k zeta_k`` (``wr + i wi``,
+    in place; ``sum_k Re w_k`` into ``out``): ``w_k <- e_k w_k + g_k b_k F``, ``e_k = er + i
+    ei``, ``g_k = l_k h_k = gr + i gi``, ``b_k`` interpolated in ``table``; ``previous`` the
+    force before (N), ``direct`` the direct term summed per row. Per table interval its rows'
+    gains are worked out once and four samples rung per pass (without the drive where the four
+    have no force), each with a single pass' bits."""
     K = er.shape[0]
     rows = table.shape[0]
     n = force.shape[0]
@@ -464,11 +428,9 @@ def _drive(
 
 def rolling_sound(rolling, model, *, floor: float = 0.0, reference: float = 0.0) -> np.ndarray:
     """What ``model``'s listener (a :class:`synth.sound.render.ModalModel` at the rolling's
-    samplerate) hears of a :class:`synth.physics.rolling.RollingContact` driving the modes
-    at its moving contact point (without the propagation delay ``model.delay``, s). The
-    plate starts loaded with the first period's force (a ball already rolling: no step).
-    Modes within their share of ``floor * reference`` (a fraction, an amplitude in Pa or
-    m/s^2: :func:`audible_modes`) are left out (with the defaults, none is)."""
+    samplerate) hears of a :class:`synth.physics.rolling.RollingContact` (without the delay
+    ``model.delay``), the plate loaded with the first period's force. Modes within their share
+    of ``floor * reference`` (:func:`audible_modes`; Pa or m/s^2) are left out (by default none)."""
     if int(model.samplerate) != int(rolling.samplerate):
         raise ParameterError(
             f"model.samplerate={model.samplerate!r} must equal the rolling's samplerate "
@@ -490,11 +452,10 @@ def rolling_sound(rolling, model, *, floor: float = 0.0, reference: float = 0.0)
 
 
 def render_path_audio(scene, model, o) -> tuple[np.ndarray, object, dict]:
-    """The physical signal (Pa or m/s^2, float64) of ``scene`` (with a velocity) heard
-    through ``model`` (a :class:`synth.sound.listener.ModalModel`) with the render options
-    ``o``, its :class:`~synth.physics.path.BallPath`, and the figures of its
-    :class:`~synth.sound.result.RenderInfo` (its :class:`~synth.sound.result.PathInfo` the
-    ``path``)."""
+    """The signal (Pa or m/s^2) of ``scene`` (with a velocity) heard through ``model`` (a
+    :class:`synth.sound.listener.ModalModel`) with the render options ``o``, its
+    :class:`~synth.physics.path.BallPath`, and its :class:`~synth.sound.result.RenderInfo`'s
+    figures (``path`` a :class:`~synth.sound.result.PathInfo`)."""
     from synth.physics.path import simulate_path
     from synth.sound.result import PathInfo
 
@@ -550,8 +511,7 @@ def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
 
 
 def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
-    """The bounces' signal with the rolling's and its tail added, and the figures of the
-    rolling's part (``left_at_end`` relative to the reference amplitude)."""
+    """The bounces' signal with the rolling's and its tail added, and the rolling's figures."""
     j0 = int(round((rolling.start - origin_time) * fs))
     c = rolling.contact_coordinate
     table = _contact_table(model, rolling, path.origin, path.direction)
@@ -582,11 +542,10 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
 
 
 def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool, float]:
-    """The listener's signal after the rolling, whether ``max_tail`` (s) cut it and the bound
-    of what rings on after its end (the signal's units). The force the rolling leaves is
-    held at its last point, so each mode rings towards its static deflection, ``zeta_k(t) =
-    zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal bank's ringing
-    (each mode until within its share of ``floor``) plus the deflection's constant part."""
+    """The signal after the rolling, whether ``max_tail`` (s) cut it, and the bound of what rings
+    on. Under the last force held at its last point each mode rings towards its static
+    deflection ``zs_k = -b_k F / p_k``: the modal bank's ringing of ``zeta_k - zs_k`` (each
+    until within its share of ``floor``) plus the deflection's constant signal."""
     p = model.poles
     end = float(rolling.contact_coordinate[-1])
     point = (path.origin[0] + path.direction[0] * end, path.origin[1] + path.direction[1] * end)
