@@ -189,19 +189,15 @@ def to_dict(analysis) -> dict:
     out = {f.name: getattr(an, f.name) for f in fields(an) if f.name not in ("ticks", "series")}
     out["warnings"] = list(an.warnings)
     out["mean_restitution"] = an.mean_restitution
-    out["units"] = {
-        "time": "s",
-        "bounce_time": "s",
+    seconds = ("time", "bounce_time", "decay_time", "window", "duration")
+    out["units"] = dict.fromkeys(seconds, "s") | {
         "speed": "m/s",
         "energy": "signal units^2 s",
         "peak": "signal units",
         "centroid": "Hz",
         "spread": "Hz",
-        "decay_time": "s",
-        "window": "s",
         "strength": "dB",
         "samplerate": "Hz",
-        "duration": "s",
         "noise_floor": "signal units",
         "gravity": "m/s^2",
     }
