@@ -1,13 +1,8 @@
-"""Analysis of bouncing sounds: find the ticks in a recording and measure them.
-
-The measurements are the perceptual parameters of the thesis (docs/physics.md, References),
-Chapter 5 and section 3.1: per tick the onset, bounce time, restitution ``e_n = t_n / t_(n-1)``,
-impact speed ``v_n = g t_n / 2``, energy, peak, spectral centroid and spread, and decay time.
-docs/analysis.md describes the method step by step and its measured accuracy.
-
-Stages, one module each: options and settings, clipping, whitening (step 1), detection (steps
-2-4), series (3, 6), deflation (5), resonator (7), ringing (9), measures, validity, pipeline
-(:func:`analyze`), report and plotting."""
+"""Analysis of bouncing sounds: find the ticks in a recording and measure them, per tick the
+perceptual parameters of the thesis (docs/physics.md, References; Chapter 5 and section 3.1):
+onset, bounce time, restitution ``e_n = t_n / t_(n-1)``, impact speed ``v_n = g t_n / 2``,
+energy, peak, spectral centroid and spread, decay time. docs/analysis.md describes the method
+step by step, its measured accuracy and the module of each stage."""
 
 from synth.lazy import lazy_names
 
