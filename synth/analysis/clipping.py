@@ -125,11 +125,9 @@ def declipped_mix(chans: np.ndarray, mask: np.ndarray, order: int) -> np.ndarray
         if not m.any():
             out[:, c] = col
             continue
-        idx = np.nonzero(m)[0]
-        breaks = np.nonzero(np.diff(idx) > 1)[0]
-        runs = np.diff(np.r_[-1, breaks, idx.size - 1])
-        p = int(min(order, max(3 * int(runs.max()), order // 20, 8)))
-        tail = col[idx[-1] + 1 :]
+        longest = max(int(hi - lo) for lo, hi in runs(m))
+        p = int(min(order, max(3 * longest, order // 20, 8)))
+        tail = col[np.nonzero(m)[0][-1] + 1 :]
         a = dsp.autocorrelation_predictor(tail if tail.size >= 4 * order else col, p)
         out[:, c] = ar_interpolate(col, m, a)
     return out[:, 0] if out.shape[1] == 1 else out.mean(axis=1)

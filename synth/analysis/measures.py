@@ -78,16 +78,9 @@ class TickMeter:
 
     def tick(self, i: int) -> Tick:
         """The :class:`Tick` of the ``i``-th tick found."""
-        x, settings, found, onsets, starts = (
-            self.x,
-            self.settings,
-            self.found,
-            self.onsets,
-            self.starts,
-        )
-        fs = settings.samplerate
-        on = onsets[i]
-        s = starts[i]
+        x, settings, found = self.x, self.settings, self.found
+        onsets, starts = self.onsets, self.starts
+        fs, on, s = settings.samplerate, onsets[i], starts[i]
         e = min(x.size, s + settings.window)
         if not settings.subtract_tails:
             y = x[s:e].copy()

@@ -4,6 +4,8 @@ here; recording-dependent checks are :func:`~synth.analysis.settings.make_settin
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,45 +19,28 @@ from synth.errors import ParameterError
 #: those steps do not model over their whole response) and for the test that calls step 7.
 DYNAMIC_RANGE_DB = 60.0
 
-#: The upper ends of the options' ranges, checked before any work (each a bound past which
-#: the option has no use, so that an absurd value is named rather than run into an
-#: allocation or an overflow):
-#: gravity, m/s^2: past the Sun's surface gravity (274 m/s^2);
-MAX_GRAVITY = 300.0
-#: margins and ranges in dB: float64 resolves 313 dB (2^-52) and no more;
-MAX_DB = 300.0
-#: the fading memory's release, dB per ms: past this it forgets within a sample at 1 MHz;
-MAX_RELEASE = 1000.0
-#: ``min_separation``, s: a bounce series' ticks come within a second of each other once
-#: the ball has bounced (a first bounce of 1 s is a drop from 1.2 m);
-MAX_SEPARATION = 1.0
-#: ``hop``, s: the frames must resolve ticks a few ms apart;
-MAX_HOP = 0.01
-#: ``background``, s: the local background of the detection (ticks are sparse over it);
-MAX_BACKGROUND = 1.0
-#: ``window``, s: a tick's measurement window (a lightly damped plate rings for seconds);
-MAX_WINDOW = 2.0
-#: ``decay_smoothing``, s: the envelope's smoothing, under the longest window;
-MAX_SMOOTHING = 0.1
-#: Highest order of the whitening predictors (the resonator's, of step 7, costs its square).
+#: The upper ends of the ranges, each past any use, so that an absurd value is named rather than
+#: run into an allocation or an overflow: gravity, m/s^2 (past the Sun's 274 m/s^2); margins and
+#: ranges, dB (float64 resolves 313 dB); the memory's release, dB/ms (forgotten within a sample at
+#: 1 MHz); ``min_separation``, s (a first bounce of 1 s is a drop from 1.2 m); ``hop``, s (ticks
+#: a few ms apart); ``background``, s; ``window``, s (a lightly damped plate rings for seconds);
+#: ``decay_smoothing``, s; the whitening's order (step 7's predictor costs its square).
+MAX_GRAVITY, MAX_DB, MAX_RELEASE = 300.0, 300.0, 1000.0
+MAX_SEPARATION, MAX_HOP, MAX_BACKGROUND, MAX_WINDOW, MAX_SMOOTHING = 1.0, 0.01, 1.0, 2.0, 0.1
 MAX_ORDER = 4096
 #: What ``on_clipping`` may say.
 ON_CLIPPING = ("warn", "raise")
 
 
-def _at_most(hi: float, unit: str, optional: bool = False):
-    """The check of a real number in (0, hi] (or None where ``optional``)."""
+def _real(hi: float, unit: str, metavar: str, more: str = "", optional: bool = False) -> dict:
+    """The declaration of a real number in (0, hi] (or None where ``optional``)."""
 
     def check(name, value, checked) -> float | None:
         if optional and value is None:
             return None
         return checks.positive_at_most(name, value, hi, unit)
 
-    return check
-
-
-def _fraction(name, value, checked) -> float:
-    return checks.in_range(name, value, 0.0, 1.0)
+    return {"unit": unit, "metavar": metavar, "check": check, "allowed": f"in (0, {hi:g}]{more}"}
 
 
 def _integer(lo: int, hi: int | None = None, optional: bool = False):
@@ -89,6 +74,10 @@ def _flag(name, value, checked) -> bool:
     return bool(value)
 
 
+def _fraction(name, value, checked) -> float:
+    return checks.in_range(name, value, 0.0, 1.0)
+
+
 def _policy(name, value, checked) -> str:
     return checks.choice(name, value, ON_CLIPPING)
 
@@ -99,6 +88,8 @@ def channel_text(text: str) -> int | None:
 
 
 _option = checks.option
+_SAMPLE = ", at least one sample"
+_SWITCH = {"unit": "", "metavar": "", "check": _flag, "parse": bool, "allowed": "True or False"}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -107,8 +98,8 @@ class AnalysisOptions:
     ``AnalysisOptions(window=0.05)``; :meth:`replace` makes a checked copy. The fields:"""
 
     gravity: float = _option(
-        GRAVITY, unit="m/s^2", metavar="G", check=_at_most(MAX_GRAVITY, "m/s^2"),
-        allowed=f"in (0, {MAX_GRAVITY:g}]", doc="gravity for the impact speeds v_n = g t_n / 2",
+        GRAVITY, **_real(MAX_GRAVITY, "m/s^2", "G"),
+        doc="gravity for the impact speeds v_n = g t_n / 2",
     )  # fmt: skip
     channel: int | None = _option(
         None, unit="", metavar="N", check=_channel, parse=channel_text,
@@ -117,47 +108,40 @@ class AnalysisOptions:
         doc="the channel analysed",
     )  # fmt: skip
     min_separation: float = _option(
-        0.001, unit="s", metavar="S", check=_at_most(MAX_SEPARATION, "s"),
-        allowed=f"in (0, {MAX_SEPARATION:g}], at least one sample",
+        0.001, **_real(MAX_SEPARATION, "s", "S", _SAMPLE),
         doc="shortest time between two ticks: a burst closer than this to a tick is part of "
         "it (the end of a long contact); lower it (0.0002) for hard balls whose last bounces "
         "are shorter than 1 ms",
     )  # fmt: skip
     hop: float = _option(
-        0.00025, unit="s", metavar="S", check=_at_most(MAX_HOP, "s"),
-        allowed=f"in (0, {MAX_HOP:g}], at least one sample",
+        0.00025, **_real(MAX_HOP, "s", "S", _SAMPLE),
         doc="spacing of the detection function's frames, each at least 12 samples long",
     )  # fmt: skip
     threshold_db: float = _option(
-        10.0, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB"),
-        allowed=f"in (0, {MAX_DB:g}]", doc="a tick's margin above the local background",
+        10.0, **_real(MAX_DB, "dB", "DB"), doc="a tick's margin above the local background",
     )  # fmt: skip
     rise_db: float = _option(
-        6.0, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB"), allowed=f"in (0, {MAX_DB:g}]",
+        6.0, **_real(MAX_DB, "dB", "DB"),
         doc="a tick's margin above the fading memory of the earlier frames",
     )  # fmt: skip
     release: float = _option(
-        5.0, unit="dB/ms", metavar="DB_PER_MS", check=_at_most(MAX_RELEASE, "dB/ms"),
-        allowed=f"in (0, {MAX_RELEASE:g}]", doc="how fast that memory fades",
+        5.0, **_real(MAX_RELEASE, "dB/ms", "DB_PER_MS"), doc="how fast that memory fades",
     )  # fmt: skip
     dynamic_range_db: float | None = _option(
-        None, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB", optional=True),
-        allowed=f"in (0, {MAX_DB:g}]; None: {DYNAMIC_RANGE_DB:g} in steps 1-6 and none in the "
-        "resonator's search, step 7, whose floor is the whitened noise floor raised by "
-        "threshold_db and max_drop_db under the last tick",
+        None, **_real(MAX_DB, "dB", "DB", f"; None: {DYNAMIC_RANGE_DB:g} in steps 1-6 and none "
+        "in the resonator's search, step 7, whose floor is the whitened noise floor raised by "
+        "threshold_db and max_drop_db under the last tick", optional=True),
         doc="ticks more than this below the strongest frame of the whitened signal are "
         "ignored, in every step",
     )  # fmt: skip
     max_drop_db: float = _option(
-        20.0, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB"),
-        allowed=f"in (0, {MAX_DB:g}]",
+        20.0, **_real(MAX_DB, "dB", "DB"),
         doc="a tick more than this below the previous tick is ignored (20 dB: a restitution "
         "below 0.1); the shortest plausible bounce is 10^(-max_drop_db / 20) times the "
         "previous one",
     )  # fmt: skip
     background: float = _option(
-        0.02, unit="s", metavar="S", check=_at_most(MAX_BACKGROUND, "s"),
-        allowed=f"in (0, {MAX_BACKGROUND:g}]",
+        0.02, **_real(MAX_BACKGROUND, "s", "S"),
         doc="length of the running median giving the local background",
     )  # fmt: skip
     onset_fraction: float = _option(
@@ -171,24 +155,22 @@ class AnalysisOptions:
         doc="order of the whitening predictor; given, that order alone and no step 7",
     )  # fmt: skip
     window: float = _option(
-        0.02, unit="s", metavar="S", check=_at_most(MAX_WINDOW, "s"),
-        allowed=f"in (0, {MAX_WINDOW:g}], at least one sample",
+        0.02, **_real(MAX_WINDOW, "s", "S", _SAMPLE),
         doc="every tick's measurement window (shorter only where the recording ends): "
         "energy, peak, centroid, spread and decay of the tick's own sound over it",
     )  # fmt: skip
     subtract_tails: bool = _option(
-        True, unit="", metavar="", check=_flag, parse=bool, allowed="True or False",
+        True, **_SWITCH,
         doc="measure each tick's own sound (its excitation through the resonator's all-pole "
         "model, without the other ticks), not the recording over the window",
     )  # fmt: skip
     deflate: bool = _option(
-        True, unit="", metavar="", check=_flag, parse=bool, allowed="True or False",
+        True, **_SWITCH,
         doc="find the ticks after the first one by one, each with the earlier ticks' "
         "whitened responses taken out (steps 5 and 7), not only those of step 3",
     )  # fmt: skip
     decay_smoothing: float = _option(
-        0.002, unit="s", metavar="S", check=_at_most(MAX_SMOOTHING, "s"),
-        allowed=f"in (0, {MAX_SMOOTHING:g}], at least 3 samples",
+        0.002, **_real(MAX_SMOOTHING, "s", "S", ", at least 3 samples"),
         doc="length of the Hann window smoothing the envelope for the decay fit",
     )  # fmt: skip
     clip_samples: int = _option(
@@ -219,39 +201,28 @@ class AnalysisOptions:
     def replace(self, **changes) -> AnalysisOptions:
         """A copy with ``changes`` (fields by name), checked."""
         checks.check_names(type(self), changes, "an analysis option")
-        return type(self)(**{**self.as_dict(), **changes})
+        return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict:
-        """The options by name, in the order of the fields."""
+        """The options by name, in the order of their fields."""
         return {name: getattr(self, name) for name in OPTIONS}
 
 
 #: The names of the analysis options, in the order of their fields.
 OPTIONS = checks.names(AnalysisOptions)
-
-
-def declaration(name: str) -> checks.Option:
-    """The :class:`~synth.checks.Option` of the analysis option ``name``."""
-    return checks.declaration(AnalysisOptions, name)
-
-
-def describe(name: str) -> str:
-    """``doc (unit; allowed)`` of the analysis option ``name``."""
-    return checks.describe(AnalysisOptions, name)
-
-
-def parameters_doc(indent: str = "    ") -> str:
-    """The analysis options as a numpydoc parameter list."""
-    return checks.parameters_doc(AnalysisOptions, indent)
+#: The :class:`~synth.checks.Option` of an analysis option by name, its ``doc (unit; allowed)``
+#: and the options as a numpydoc parameter list.
+declaration = functools.partial(checks.declaration, AnalysisOptions)
+describe = functools.partial(checks.describe, AnalysisOptions)
+parameters_doc = functools.partial(checks.parameters_doc, AnalysisOptions)
 
 
 def flag(name: str) -> str:
     """The command line's flag of option ``name`` (``--no-NAME`` for a switch on by default)."""
-    d = declaration(name)
     dashed = name.replace("_", "-")
-    if d.parse is bool:
+    if declaration(name).parse is bool:
         return f"--no-{dashed}" if checks.default(AnalysisOptions, name) else f"--{dashed}"
-    return f"--{dashed} {d.metavar}"
+    return f"--{dashed} {declaration(name).metavar}"
 
 
 def flag_help(name: str) -> str:
@@ -265,9 +236,7 @@ def flag_help(name: str) -> str:
 
 def flag_rows() -> str:
     """The rows of the analysis options' flags (Markdown, as docs/cli.md prints them)."""
-    return "\n".join(
-        f"| `{flag(name)}` | {flag_help(name).replace('|', '/')} |" for name in OPTIONS
-    )
+    return "\n".join(f"| `{flag(n)}` | {flag_help(n).replace('|', '/')} |" for n in OPTIONS)
 
 
 def from_text(given: dict) -> AnalysisOptions:

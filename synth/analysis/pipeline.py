@@ -141,7 +141,6 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         tops = sum(
             int(sv.high_tops[c] if lv == sv.highs[c] else sv.low_tops[c]) for c, lv in levels
         )
-        _refuse_clipped_throughout(tops, source.frames * sv.highs.size)
         worst = max(levels, key=lambda cl: sv.high_tops[cl[0]] + sv.low_tops[cl[0]])[0]
         warning = clipping_warning(
             tops,
@@ -149,8 +148,7 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
             int(sv.high_tops[worst] + sv.low_tops[worst]),
             float(max(abs(sv.highs[worst]), abs(sv.lows[worst]))),
         )
-        if settings.on_clipping == "raise":
-            raise AnalysisError(warning)
+        _check_clipping(tops, source.frames * sv.highs.size, warning, settings)
 
     def signal(start: int, stop: int) -> np.ndarray:
         chans = source.read(start, stop)
@@ -177,7 +175,8 @@ def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Se
     """The numbered series of ``found`` starting with an impact; AnalysisError where nothing rings
     down (:func:`~synth.analysis.validity.check_impulsive`) or none starts with one."""
     ticks = [t for s in _numbered(found) for t in s.ticks]
-    check_impulsive(ticks, ringing_from(_first_sample(ticks, settings)), test.fs)
+    first = int(ticks[0].time * settings.samplerate) if ticks else 0  # the first onset
+    check_impulsive(ticks, ringing_from(first), test.fs)
     kept = impact_series(found, test)
     if ticks and not kept:
         raise AnalysisError(
@@ -185,11 +184,6 @@ def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Se
             f"spectrum as an impact does (is this a recording of impacts?)"
         )
     return _numbered(kept)
-
-
-def _first_sample(ticks: list, settings: Settings) -> int:
-    """The sample of the first tick's onset (0 without ticks)."""
-    return int(ticks[0].time * settings.samplerate) if ticks else 0
 
 
 def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
@@ -376,15 +370,11 @@ def analyze_file(path, *, options=None, **overrides) -> Analysis:
         An unreadable file and the cases of :func:`analyze`."""
     o = AnalysisOptions.of(options, **overrides)
     check_recording_path(path)
-    frames = file_frames(path)
-    if frames is None:  # not a file read in blocks: read whole
-        settings, source = None, None
-    else:
-        source = FileSource(path)
-        settings = make_settings(source.channels, source.samplerate, o)
+    frames = file_frames(path)  # None: a format read whole
+    source = None if frames is None else FileSource(path)
+    settings = None if source is None else make_settings(source.channels, source.samplerate, o)
     if source is None or frames <= whole_frames(settings.samplerate):
-        audio, samplerate = read_recording(path)
-        result = analyze(audio, samplerate, options=o)
+        result = analyze(*read_recording(path), options=o)
     else:
         result = _analyze_source(source, settings)
     short = wav_shortfall(path)
@@ -420,9 +410,8 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     _refuse_silence(bool(np.any(used)), True)
     clipping = find_clipping(used, settings.clip_samples)
     if clipping is not None:
-        _refuse_clipped_throughout(int(np.count_nonzero(clipping.mask)), used.size)
-    if clipping is not None and settings.on_clipping == "raise":
-        raise AnalysisError(clipping.warning)
+        tops = int(np.count_nonzero(clipping.mask))
+        _check_clipping(tops, used.size, clipping.warning, settings)
     return clipping
 
 
@@ -434,10 +423,13 @@ def _refuse_silence(any_sample: bool, any_mix: bool) -> None:
         raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
 
 
-def _refuse_clipped_throughout(tops: int, size: int) -> None:
-    """Raise AnalysisError past :data:`CLIPPED_AT_MOST` in flat tops."""
+def _check_clipping(tops: int, size: int, warning: str, settings: Settings) -> None:
+    """Raise AnalysisError past :data:`CLIPPED_AT_MOST` of ``size`` samples in flat tops, or
+    with ``warning`` where ``on_clipping="raise"``."""
     if tops > CLIPPED_AT_MOST * size:
         raise AnalysisError(
             f"{tops} of {size} samples sit in flat tops at the extremes: not a recording of "
             f"impacts (a square wave, or one clipped throughout)"
         )
+    if settings.on_clipping == "raise":
+        raise AnalysisError(warning)

@@ -75,9 +75,13 @@ def plot_analysis(analysis, audio, samplerate, path):
     FigureCanvasAgg(fig)
     ax = fig.subplots(2, 2)
     _signal_panel(ax[0, 0], an, x)
-    _bounce_panel(ax[0, 1], an)
+    bounce = ("bounce_time", 1e3, "bounce time (ms)", "tab:blue")
+    restitution = ("restitution", 1.0, "restitution e", "tab:orange")
+    _twin_panel(ax[0, 1], an, bounce, restitution, "bounce time and restitution")
     _energy_panel(ax[1, 0], an)
-    _spectrum_panel(ax[1, 1], an)
+    centroid = ("centroid", 1.0, "centroid (Hz)", "tab:purple")
+    decay = ("decay_time", 1e3, "decay time (ms)", "tab:brown")
+    _twin_panel(ax[1, 1], an, centroid, decay, "centroid and decay time")
     for a_ in (ax[0, 1], ax[1, 0], ax[1, 1]):
         a_.xaxis.set_major_locator(MaxNLocator(integer=True))
     write_atomically(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=110), error=ParameterError)
@@ -124,13 +128,14 @@ def _signal_panel(ax, an: Analysis, x: np.ndarray) -> None:
     ax.set(xlabel="time (s)", ylabel="signal", title=f"{len(an.ticks)} ticks detected")
 
 
-def _bounce_panel(ax, an: Analysis) -> None:
+def _twin_panel(ax, an: Analysis, left: tuple, right: tuple, title: str) -> None:
+    """Two fields per tick, ``(field, scale, label, colour)`` each, on twin axes."""
     n = _numbers(an)
-    ax.plot(n, _column(an, "bounce_time", 1e3), "o-", color="tab:blue", ms=3)
-    ax.set(xlabel="tick", ylabel="bounce time (ms)", title="bounce time and restitution")
+    ax.plot(n, _column(an, left[0], left[1]), "o-", color=left[3], ms=3)
+    ax.set(xlabel="tick", ylabel=left[2], title=title)
     twin = ax.twinx()
-    twin.plot(n, _column(an, "restitution"), "s-", color="tab:orange", ms=3)
-    twin.set_ylabel("restitution e", color="tab:orange")
+    twin.plot(n, _column(an, right[0], right[1]), "s-", color=right[3], ms=3)
+    twin.set_ylabel(right[2], color=right[3])
 
 
 def _energy_panel(ax, an: Analysis) -> None:
@@ -144,12 +149,3 @@ def _energy_panel(ax, an: Analysis) -> None:
         )
     ax.set(xlabel="tick", ylabel="energy (signal units^2 s)", title="energy per tick")
     ax.legend(loc="upper right")
-
-
-def _spectrum_panel(ax, an: Analysis) -> None:
-    n = _numbers(an)
-    ax.plot(n, _column(an, "centroid"), "o-", color="tab:purple", ms=3)
-    ax.set(xlabel="tick", ylabel="centroid (Hz)", title="centroid and decay time")
-    twin = ax.twinx()
-    twin.plot(n, _column(an, "decay_time", 1e3), "s-", color="tab:brown", ms=3)
-    twin.set_ylabel("decay time (ms)", color="tab:brown")

@@ -56,11 +56,10 @@ class Tick:
         Margin of the whitened energy over its threshold, dB (step 7's description-length
         ticks: the fall of the description length, dB of residual energy per sample).
     flags : tuple of str
-        Why measurements are impossible or doubtful: ``"restitution>=1"`` (bounce did not
-        shrink), ``"after-restitution>=1"`` (measured against such a bounce),
-        ``"missed-bounce"`` (spans a missed bounce), ``"no-decay"`` (its sound does not ring
-        down; :mod:`~synth.analysis.validity`). The first three withhold the restitution.
-    """
+        Why measurements are impossible or doubtful (:mod:`~synth.analysis.validity`): a bounce
+        that grew (``"restitution>=1"``), one measured against it (``"after-restitution>=1"``)
+        or spanning a missed bounce (``"missed-bounce"``) withholds the restitution;
+        ``"no-decay"``: the tick's sound does not ring down."""
 
     index: int
     time: float
@@ -189,19 +188,15 @@ def to_dict(analysis) -> dict:
     out = {f.name: getattr(an, f.name) for f in fields(an) if f.name not in ("ticks", "series")}
     out["warnings"] = list(an.warnings)
     out["mean_restitution"] = an.mean_restitution
-    out["units"] = {
-        "time": "s",
-        "bounce_time": "s",
+    seconds = ("time", "bounce_time", "decay_time", "window", "duration")
+    out["units"] = dict.fromkeys(seconds, "s") | {
         "speed": "m/s",
         "energy": "signal units^2 s",
         "peak": "signal units",
         "centroid": "Hz",
         "spread": "Hz",
-        "decay_time": "s",
-        "window": "s",
         "strength": "dB",
         "samplerate": "Hz",
-        "duration": "s",
         "noise_floor": "signal units",
         "gravity": "m/s^2",
     }

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
-from synth.analysis.options import DYNAMIC_RANGE_DB, AnalysisOptions
+from synth.analysis.options import DYNAMIC_RANGE_DB, OPTIONS, AnalysisOptions
 from synth.errors import ParameterError, SynthError
 
 #: Fewest samples in a frame of the detection function: at low rates the frames overlap, so that
@@ -33,31 +33,39 @@ class AnalysisError(SynthError, ValueError):
 
 @dataclass(frozen=True)
 class Settings:
-    """The options for one recording, durations in samples; ``fixed_range``: range given;
-    ``innovation``: the recording's largest whitened magnitude."""
+    """The options of one recording: its rate and durations in samples, the options' other
+    fields read through (:class:`AnalysisOptions`); ``innovation``: the recording's
+    largest whitened magnitude."""
 
+    options: AnalysisOptions
     samplerate: float  # Hz
-    gravity: float  # m/s^2
-    channel: int | None
     min_separation: int  # samples
     hop: int  # samples
-    threshold_db: float
-    rise_db: float
-    release: float  # dB/ms
-    dynamic_range_db: float
-    fixed_range: bool
-    max_drop_db: float
-    background: float  # s
-    onset_fraction: float
-    whitening_order: int
-    fixed_order: bool  # lpc_order given: that order alone, no step 7
     window: int  # samples
-    subtract_tails: bool
-    deflate: bool
     decay_smoothing: int  # samples
-    clip_samples: int
-    on_clipping: str
+    whitening_order: int
     innovation: float | None = None
+
+    def __getattr__(self, name):
+        if name in OPTIONS:
+            return getattr(self.options, name)
+        raise AttributeError(name)
+
+    @property
+    def dynamic_range_db(self) -> float:
+        """The detection's floor, dB (:data:`DYNAMIC_RANGE_DB` unless given)."""
+        given = self.options.dynamic_range_db
+        return DYNAMIC_RANGE_DB if given is None else given
+
+    @property
+    def fixed_range(self) -> bool:
+        """Whether ``dynamic_range_db`` was given."""
+        return self.options.dynamic_range_db is not None
+
+    @property
+    def fixed_order(self) -> bool:
+        """Whether ``lpc_order`` was given: that order alone, no step 7."""
+        return self.options.lpc_order is not None
 
     @property
     def frame(self) -> int:
@@ -85,29 +93,21 @@ def make_settings(channels: int, samplerate, options: AnalysisOptions) -> Settin
     ParameterError for a bad rate, channel or duration."""
     fs = checks.positive_at_most("samplerate", samplerate, MAX_SAMPLERATE, "Hz")
     o = options
-    lpc_order = o.lpc_order
+    if o.channel is not None and not 0 <= o.channel < channels:
+        raise ParameterError(
+            f"channel={o.channel!r} is out of range: the audio has {channels} channel(s), "
+            f"allowed 0..{channels - 1} or None (mix)"
+        )
     return Settings(
+        options=o,
         samplerate=fs,
-        gravity=o.gravity,
-        channel=_channel(o.channel, channels),
         min_separation=_samples("min_separation", o.min_separation, fs),
         hop=_samples("hop", o.hop, fs),
-        threshold_db=o.threshold_db,
-        rise_db=o.rise_db,
-        release=o.release,
-        dynamic_range_db=DYNAMIC_RANGE_DB if o.dynamic_range_db is None else o.dynamic_range_db,
-        fixed_range=o.dynamic_range_db is not None,
-        max_drop_db=o.max_drop_db,
-        background=o.background,
-        onset_fraction=o.onset_fraction,
-        whitening_order=max(8, int(round(WHITENING_SPAN * fs))) if lpc_order is None else lpc_order,
-        fixed_order=lpc_order is not None,
         window=_samples("window", o.window, fs),
-        subtract_tails=o.subtract_tails,
-        deflate=o.deflate,
         decay_smoothing=_samples("decay_smoothing", o.decay_smoothing, fs, lo=3),
-        clip_samples=o.clip_samples,
-        on_clipping=o.on_clipping,
+        whitening_order=(
+            max(8, int(round(WHITENING_SPAN * fs))) if o.lpc_order is None else o.lpc_order
+        ),
     )
 
 
@@ -130,15 +130,6 @@ def audio_array(audio) -> np.ndarray:
             f"all must be finite"
         )
     return a if a.ndim == 2 else a[:, None]
-
-
-def _channel(channel: int | None, n: int) -> int | None:
-    if channel is not None and not 0 <= channel < n:
-        raise ParameterError(
-            f"channel={channel!r} is out of range: the audio has {n} channel(s), "
-            f"allowed 0..{n - 1} or None (mix)"
-        )
-    return channel
 
 
 def _samples(name: str, seconds: float, fs: float, lo: int = 1) -> int:

@@ -157,12 +157,9 @@ def add_analysis_flags(p) -> None:
 
     for name in options.OPTIONS:
         d = options.declaration(name)
-        flag = options.flag(name).split()[0]
         if d.parse is bool:
-            p.add_argument(
-                flag, dest=name, action="store_const", const=False, help=options.flag_help(name)
-            )
+            how = {"action": "store_const", "const": False}
         else:
-            p.add_argument(
-                flag, dest=name, choices=d.choices, metavar=d.metavar, help=options.flag_help(name)
-            )
+            how = {"choices": d.choices, "metavar": d.metavar}
+        flag = options.flag(name).split()[0]
+        p.add_argument(flag, dest=name, help=options.flag_help(name), **how)

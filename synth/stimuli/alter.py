@@ -1,12 +1,7 @@
-"""Alter a recorded bouncing sound: the thesis' restitution change (section 5.2.2).
-
-Every restitution is changed by ``1 - e'_n = k (1 - e_n)``, the new bounce times
-``T'_n = e'_n T'_(n-1)``. Each tick's own sound (what an all-pole continuation of the
-recording from just before it does not explain, :mod:`synth.stimuli.prediction`) is
-re-laid at its new onset (:mod:`synth.stimuli.splice`); lengthened bounces are filled with
-the decaying continuation and the recording's background noise (docs/analysis.md,
-"Altering a recording").
-"""
+"""Alter a recorded bouncing sound by the thesis' rule ``1 - e'_n = k (1 - e_n)`` (section
+5.2.2), new bounce times ``T'_n = e'_n T'_(n-1)``: each tick's own sound re-laid at its new
+onset (:mod:`synth.stimuli.splice`, :mod:`synth.stimuli.prediction`; docs/analysis.md,
+"Altering a recording")."""
 
 from __future__ import annotations
 
@@ -20,15 +15,14 @@ from synth import checks
 from synth.errors import ParameterError
 from synth.stimuli.splice import SplicedChannel, TickLayout
 
-#: Before each onset: where the fits end and the prediction starts, clear of the attack's
-#: pre-echo (an anti-aliasing or resampling filter spreads an attack over a few tenths of
-#: a millisecond before it), s; and where a tick's own sound starts (the onsets are known
-#: to about a sample period), s. Both at most half the shortest bounce.
+#: Before each onset, s (at most half the shortest bounce): where the fits end and the
+#: prediction starts, clear of an anti-aliasing filter's pre-echo of the attack (a few tenths
+#: of a ms); where a tick's own sound starts (the onsets are known to about a sample period).
 GUARD = 0.0005
 LEAD = 0.0001
 
-#: Samples after an onset left out of the fits (under the contact), s; at most half the
-#: bounce. The analysis' default ``min_separation``, which must exceed the contact time.
+#: After an onset, left out of the fits (under the contact), s; at most half the bounce. The
+#: analysis' default ``min_separation``, which exceeds the contact time.
 EXCITATION = 0.001
 #: The last FADE s of the output are faded out.
 FADE = 0.005
@@ -39,9 +33,8 @@ NORMALIZE_MODES = ("none", "peak")
 
 @dataclass(frozen=True)
 class _Timing:
-    """The bounce times of a series and their alteration (module docstring): ``bounces``
-    ``T_n`` (s) and ``restitution`` ``e_n`` measured; ``new_restitution`` ``e'_n`` by the
-    rule; ``new_bounces`` ``T'_n`` (s) up to the end of the altered series."""
+    """Measured bounces ``T_n`` (s) and restitutions ``e_n``, the rule's ``e'_n`` and the new
+    bounces ``T'_n`` (s) up to the end of the altered series."""
 
     bounces: np.ndarray
     restitution: np.ndarray
@@ -64,8 +57,7 @@ class _Timing:
         return cls(T, e, e_new, np.array(T_new))
 
     def too_short(self, k: float, min_bounce: float) -> ParameterError:
-        """The error of an alteration that leaves fewer than 3 ticks, with the largest
-        ``k`` that keeps a third."""
+        """The error of an alteration that leaves fewer than 3 ticks, with the largest ``k``."""
         e, e_new, T, T_new = self.restitution, self.new_restitution, self.bounces, self.new_bounces
         if e_new[0] <= 0.0:  # no rebound at all (a bounce time would be meaningless)
             why = "<= 0: the ball would not rebound"
@@ -80,10 +72,8 @@ class _Timing:
 
 
 def _check_one_series(t: np.ndarray) -> None:
-    """Refuse onsets that are not one bounce series: a bounce time that does not shrink
-    (``e_n >= 1``) is no restitution of a ball but a missed tick or a new drop, and the
-    rule would turn it the wrong way (``k > 1`` raises an ``e_n > 1``: a deader ball
-    would bounce livelier)."""
+    """Refuse onsets that are not one bounce series: ``e_n >= 1`` is a missed tick or a new
+    drop, which the rule would turn the wrong way (``k > 1`` raises an ``e_n > 1``)."""
     T = np.diff(t)
     grown = np.nonzero(T[1:] >= T[:-1])[0]
     if grown.size:
@@ -128,10 +118,9 @@ class AlterOptions:
 
 @dataclass(frozen=True)
 class Alteration:
-    """The result of :func:`alter_restitution`: ``audio`` (float64, the recording's channels and
-    units unless ``normalize="peak"``); ``onsets``, s, of the ``M`` ticks kept; ``restitution``,
-    the ``N - 2`` measured ``e_n`` of ``N`` onsets; ``new_restitution``, the ``M - 2`` new ones,
-    ``1 - k (1 - restitution[:M - 2])``."""
+    """:func:`alter_restitution`'s ``audio`` (float64, the recording's channels and units unless
+    ``normalize="peak"``); ``onsets`` (s) of the ``M`` ticks kept; the ``N - 2`` measured
+    ``restitution`` of ``N`` onsets and the ``M - 2`` ``new_restitution``."""
 
     audio: np.ndarray
     onsets: np.ndarray
@@ -162,10 +151,8 @@ def alter_restitution(
     grows) or an alteration that leaves fewer than 3 ticks.
     """
     o = dataclasses.replace(options or AlterOptions(), **overrides)
-    x, fs, k = _checked_arguments(audio, samplerate, restitution_scale)
-    mono = x.ndim == 1
-    X = x[:, None] if mono else x
-    t = _checked_onsets(x, fs, onsets, gravity, channel, X.shape[0])
+    X, fs, k = _checked_arguments(audio, samplerate, restitution_scale)
+    t = _checked_onsets(X, fs, onsets, gravity, channel)
     min_b = _checked_min_bounce(o.min_bounce, t, fs)
     timing = _Timing.of(t, k, min_b)
     T, T_new = timing.bounces, timing.new_bounces
@@ -187,29 +174,29 @@ def alter_restitution(
         if peak > 0.0:
             Y = (Y / peak) * 10.0 ** (o.peak_db / 20.0)
     T_kept = np.diff(t_new)
-    return Alteration(Y[:, 0] if mono else Y, t_new, timing.restitution, T_kept[1:] / T_kept[:-1])
+    return Alteration(
+        Y[:, 0] if np.ndim(audio) == 1 else Y, t_new, timing.restitution, T_kept[1:] / T_kept[:-1]
+    )
 
 
 def _checked_arguments(audio, samplerate, restitution_scale):
-    """The checked audio (float64), samplerate (Hz) and ``k`` of :func:`alter_restitution`."""
-    x = np.asarray(audio, dtype=float)
-    if x.ndim not in (1, 2) or x.shape[0] == 0 or (x.ndim == 2 and x.shape[1] == 0):
-        raise ParameterError(f"audio with shape {x.shape} must be (frames,) or (frames, channels)")
-    if not np.all(np.isfinite(x)):
-        raise ParameterError("audio contains NaN or inf; every sample must be finite")
+    """The checked audio (float64, ``(frames, channels)``), samplerate (Hz) and ``k`` of
+    :func:`alter_restitution`."""
+    from synth.analysis.settings import audio_array
+
+    X = audio_array(audio)
     fs = checks.positive("samplerate", samplerate, "Hz")
     k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
-    return x, fs, k
+    return X, fs, k
 
 
-def _checked_onsets(x, fs, onsets, gravity, channel, frames):
-    """The tick onsets, s (given, or detected by :func:`synth.analysis.analyze`), checked
-    to be one bounce series inside the audio."""
+def _checked_onsets(x, fs, onsets, gravity, channel):
+    """The tick onsets, s (given, or :func:`synth.analysis.analyze`'s), one series in the audio."""
     if onsets is None:
         from synth.analysis import analyze
 
         onsets = [t.time for t in analyze(x, fs, gravity=gravity, channel=channel).ticks]
-    t = np.asarray(onsets, dtype=float)
+    t, frames = np.asarray(onsets, dtype=float), x.shape[0]
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)):
         raise ParameterError(f"onsets must be at least 3 finite times (s), got shape {t.shape}")
     if np.any(np.diff(t) < 2.0 / fs) or t[0] < 0.0 or t[-1] * fs >= frames:
@@ -235,8 +222,8 @@ def _checked_min_bounce(min_bounce, t, fs) -> float:
 
 
 def _layout(fs, t, t_new, T, gain, min_b) -> TickLayout:
-    """The ticks at onsets ``t`` (s) laid anew at ``t_new`` with their ``gain``; ``T``:
-    the recorded bounces, ``min_b``: the shortest new bounce, s."""
+    """The ticks at ``t`` laid at ``t_new`` (s) with ``gain``; ``T``: the recorded bounces,
+    ``min_b``: the shortest new one, s."""
     M = gain.size
     guard = min(GUARD, 0.5 * min_b, 0.5 * float(np.min(T)))
     lead = min(LEAD, guard)
@@ -255,17 +242,16 @@ def _layout(fs, t, t_new, T, gain, min_b) -> TickLayout:
 
 
 def _under_contacts(start, onsets, fs) -> list[tuple[int, int]]:
-    """The samples under each contact, left out of the fits: from ``start`` to EXCITATION
-    after the onset (samples), at most half the bounce."""
+    """``(start, onset + EXCITATION)`` of each contact, samples, at most half the bounce."""
     reach = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(onsets), np.inf])
     return [(int(c), int(math.ceil(o + r))) for c, o, r in zip(start, onsets, reach)]
 
 
 def _joined(parts, X, fs):
-    """The spliced channels, ending together, faded out over FADE s (``X`` copied when
-    nothing changed, ``k = 1``)."""
+    """The spliced channels, ending together, faded out over FADE s (``X`` copied for
+    ``k = 1``)."""
     if all(part.unchanged for part in parts):
-        return X.copy()  # nothing changed (k = 1)
+        return X.copy()
     n_out = max(part.end for part in parts)  # the channels end together
     Y = np.stack([part.finish(n_out) for part in parts], axis=1)
     nf = min(Y.shape[0], max(1, int(round(FADE * fs))))

@@ -12,7 +12,6 @@ import numpy as np
 from scipy.signal import lfilter
 
 from synth import dsp
-from synth.compilation import compiled
 
 #: Past spanned by the prediction model, s (its order: 400 samples at 48 kHz).
 ORDER = 1.0 / 120.0
@@ -28,46 +27,18 @@ NOISE_ORDER = 0.001
 SMOOTHING = 0.001
 
 
-@compiled(sums=True)
-def _cholesky_solve(A, b):  # pragma: no cover - compiled
-    """Solve ``A x = b`` for symmetric positive definite ``A`` (Cholesky, ``A = L L^T``,
-    Golub and Van Loan, Matrix Computations, sec. 4.2); NaN when ``A`` is not positive
-    definite. Single-threaded: the systems are small (a few hundred unknowns)."""
-    n = b.size
-    L = np.zeros((n, n))
-    x = np.empty(n)
-    for j in range(n):
-        s = A[j, j]
-        for m in range(j):
-            s -= L[j, m] * L[j, m]
-        if not s > 0.0:
-            x[:] = np.nan
-            return x
-        L[j, j] = np.sqrt(s)
-        for i in range(j + 1, n):
-            s = A[i, j]
-            for m in range(j):
-                s -= L[i, m] * L[j, m]
-            L[i, j] = s / L[j, j]
-    for i in range(n):
-        s = b[i]
-        for m in range(i):
-            s -= L[i, m] * x[m]
-        x[i] = s / L[i, i]
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for m in range(i + 1, n):
-            s -= L[m, i] * x[m]
-        x[i] = s / L[i, i]
-    return x
-
-
 def _solve(phi, ridge):
-    """Prediction-error filter ``[1, a1 .. ap]`` from the normal equations, with a ridge
-    of ``ridge`` times the mean diagonal (a white-noise correction) for conditioning."""
+    """Prediction-error filter ``[1, a1 .. ap]`` from the normal equations by Cholesky (least
+    squares where they are not positive definite), with a ridge of ``ridge`` times the mean
+    diagonal (a white-noise correction) for conditioning."""
+    from scipy.linalg import LinAlgError, cho_factor, cho_solve
+
     p = phi.shape[0] - 1
     R = phi[1:, 1:] + ridge * float(np.trace(phi[1:, 1:])) / p * np.eye(p)
-    coef = _cholesky_solve(R, -phi[1:, 0])
+    try:
+        coef = cho_solve(cho_factor(R, check_finite=False), -phi[1:, 0], check_finite=False)
+    except LinAlgError:
+        coef = np.full(p, np.nan)
     if not np.all(np.isfinite(coef)):
         coef = np.linalg.lstsq(R, -phi[1:, 0], rcond=None)[0]
     return np.r_[1.0, coef]

@@ -1,8 +1,7 @@
-"""The splicing of one channel for :mod:`synth.stimuli.alter`: each tick's own sound (the
-recording less the earlier ticks' predicted ringing) laid at its new time with its gain,
-its ringing continued by the prediction models, the recorded noise handed over to
-synthesised noise, up to where the output falls to the recording's end level.
-"""
+"""One channel of :mod:`synth.stimuli.alter`: each tick's own sound (the recording less the
+earlier ticks' predicted ringing) laid at its new time with its gain, continued by the
+prediction models, the recorded noise handed over to synthesised noise (docs/analysis.md,
+"Altering a recording")."""
 
 from __future__ import annotations
 
@@ -19,24 +18,19 @@ from synth.stimuli.prediction import (
     wiener_gain,
 )
 
-#: After the last tick kept, the output stops where it has fallen to the recording's end
-#: level, at least this far below its peak, dB, and at most MAX_TAIL s after that tick.
+#: After the last tick, the output stops at the recording's end level, at least this far under
+#: its peak, dB, at most MAX_TAIL s after that tick.
 END_FLOOR_DB = -80.0
 MAX_TAIL = 60.0
 
 
 @dataclass(frozen=True)
 class TickLayout:
-    """Where every tick is cut, joined and laid anew, in samples, the same for every
-    channel (module docstring of :mod:`synth.stimuli.alter`).
-
-    ``cut``: where each tick's fits end and its prediction starts, GUARD before its onset
-    (in the recording); ``join`` and ``join_new``: where its own sound starts, LEAD before
-    its onset (in the recording and in the output); ``gain``: each kept tick's gain;
-    ``speed``: each kept tick's impact speed over tick 1's (for the template of a tail);
-    ``excluded`` and ``excluded_new``: the ``(start, stop)`` samples under each contact,
-    left out of the fits (in the recording and in the output); ``lead``: LEAD as used, s.
-    """
+    """Where every tick is cut, joined and laid anew, samples, for every channel: ``cut``, GUARD
+    before each onset (fits end, prediction starts); ``join`` and ``join_new``, LEAD before it
+    (its own sound starts; in the recording and the output); each kept tick's ``gain`` and
+    ``speed`` over tick 1's (the template's scale); ``excluded`` and ``excluded_new``:
+    ``(start, stop)`` under each contact; ``lead``: LEAD as used, s."""
 
     cut: np.ndarray
     join: np.ndarray
@@ -50,10 +44,8 @@ class TickLayout:
 
 @dataclass(frozen=True)
 class _OwnSound:
-    """A tick's own sound (:meth:`SplicedChannel._own_sound`): ``recorded`` as in the
-    recording, ``observed`` samples from its join; its deterministic continuation
-    ``continued`` from sample ``continued_from``; the crossfade from the first to the
-    second over ``[start - fade, start)``."""
+    """A tick's own sound: ``recorded``, ``observed`` samples from its join; its continuation
+    ``continued`` from sample ``continued_from``, crossfaded over ``[start - fade, start)``."""
 
     recorded: np.ndarray
     observed: int
@@ -64,12 +56,9 @@ class _OwnSound:
 
 
 class SplicedChannel:
-    """One channel of the alteration (module docstring), built in time order: ``y`` is
-    final up to ``done``; ``F`` holds what the ticks so far will still sound after it
-    (deterministic parts and gated recorded noise). :meth:`finish` ends it.
-
-    ``z``: the channel's recording; ``fs``: its rate, Hz; ``layout``: the ticks' places
-    (:class:`TickLayout`); ``rng``: the generator of its synthesised noise."""
+    """Recording ``z`` at ``fs`` Hz re-laid by ``layout``, in time order: ``y`` is final up to
+    ``done``, ``F`` holds what the ticks so far still sound after it; :meth:`finish` ends it;
+    ``rng`` draws its synthesised noise."""
 
     def __init__(self, z, fs, layout: TickLayout, rng):
         self.z, self.fs = z, fs
@@ -103,8 +92,7 @@ class SplicedChannel:
         self.end = self.done + self._end()
 
     def _first_changed(self):
-        """The first tick laid anew: before it (at least the first bounce) the output is the
-        recording itself."""
+        """The first tick laid anew (the output is the recording before it)."""
         join, join_new, gain, M = self.join, self.join_new, self.gain, self.M
         i0 = 1
         while (
@@ -117,8 +105,7 @@ class SplicedChannel:
         return i0
 
     def _model(self, q):
-        """The prediction model of the recording before sample q, and whether it is clean
-        (:func:`fit_model`), fitted once."""
+        """:func:`fit_model` of the recording before sample q, fitted once."""
         if q not in self.models:
             self.models[q] = fit_model(self.z, q, self.fs, self.excluded)
         return self.models[q]
@@ -130,9 +117,8 @@ class SplicedChannel:
         return P
 
     def _own_sound(self, j, need) -> _OwnSound:
-        """Tick j's own sound as recorded (from its join to the next tick's cut, clear of
-        that tick's pre-echo; with the recorded noise), and its deterministic continuation,
-        at least ``need`` samples from the join."""
+        """Tick j's own sound as recorded (join to the next cut, with its noise) and its
+        continuation, at least ``need`` samples from the join."""
         z, fs, cut, join, r = self.z, self.fs, self.cut, self.join, self.r
         jj = join[j]
         obs = cut[j + 1] - jj if j + 1 < self.N else min(z.size - jj, jj - join[j - 1])
@@ -159,9 +145,8 @@ class SplicedChannel:
         return _OwnSound(own, obs, st, k, self.speed[j] * self.ref[st - k : max(st, need)], st - k)
 
     def _rebase(self, j):
-        """No onset of the output within the reach of tick j's model: the output's ringing
-        is continued from the output itself (replacing what the earlier ticks' parts would
-        give)."""
+        """No onset within the reach of tick j's model: the output's ringing is continued from
+        the output itself."""
         if j >= self.M:
             return False
         a = self._model(self.cut[j])[0]
@@ -169,9 +154,8 @@ class SplicedChannel:
         return j == self.i0 or reach >= (0 if a is None else a.size - 1)
 
     def _lay(self, j):
-        """Lay tick j's own sound, scaled by its gain, at its new join (module docstring,
-        steps 2-3). Returns ``(latest, at)``: where its recorded part ends, and where its
-        recorded noise is handed over (samples after its join)."""
+        """Lay tick j's own sound times its gain at its new join; ``(latest, at)``: where its
+        recorded part ends and its recorded noise is handed over, samples after the join."""
         r, ramp, npow, fs = self.r, self.ramp, self.npow, self.fs
         cn = self.join_new[j]
         span = self.join_new[j + 1] - cn if j + 1 < self.M else None
@@ -215,8 +199,7 @@ class SplicedChannel:
         return latest, at
 
     def _reference(self, stop):
-        """The template of a tick's tail: tick 1's own sound (its recording less tick 0's
-        ringing), continued by its model from where it comes within 20 dB of the noise."""
+        """The template: tick 1's own sound, continued by its model within 20 dB of the noise."""
         z, cut, join = self.z, self.cut, self.join
         jj = join[1]
         obs = join[2] - jj
@@ -259,8 +242,7 @@ class SplicedChannel:
         return nz
 
     def _end(self):
-        """Samples after ``done`` to where the deterministic part has fallen to the level at
-        which the recording ends (10 ms blocks after the last tick's recorded part)."""
+        """Samples after ``done`` to where the deterministic part falls to the end level."""
         n = max(1, int(round(NOISE_FRAME * self.fs)))
         pos = max(0, self.tail - self.done)
         while pos < self.F.size:
@@ -277,8 +259,7 @@ class SplicedChannel:
 
 
 def _follow(P, Q, stop, longest, fs):
-    """``P - Q`` (Q may be None) in 10 ms blocks until a block's RMS is at or below
-    ``stop``, at most ``longest`` samples (rounded up to a block)."""
+    """``P - Q`` (Q None: 0) in 10 ms blocks to one at RMS ``stop``, at most ``longest``."""
     n = max(1, int(round(NOISE_FRAME * fs)))
     out, done = [], 0
     while done < longest:
@@ -291,8 +272,7 @@ def _follow(P, Q, stop, longest, fs):
 
 
 def _end_level(z, fs, noise_level):
-    """RMS level at which the recording ends: its noise floor, the RMS of its last 10 ms,
-    and at least END_FLOOR_DB re its peak."""
+    """The recording's end level: noise floor, last 10 ms' RMS, at least END_FLOOR_DB re peak."""
     n = max(1, int(round(NOISE_FRAME * fs)))
     last = float(np.sqrt(np.mean(z[-n:] ** 2)))
     return max(noise_level, last, float(np.max(np.abs(z))) * 10.0 ** (END_FLOOR_DB / 20.0))
