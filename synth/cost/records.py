@@ -1,10 +1,7 @@
-"""The estimates' records: the budget they must fit (:class:`Budget`, its defaults and
-environment variables), the memory a render holds (:class:`MemoryParts`), the radiation
-stage's work (:class:`RadiationWork`), a render's whole estimate (:class:`CostEstimate`), a
-live body's (:class:`BodyCost`), the cold mode solve's (:class:`SolverCost`), what of them is
-beyond a budget with what to change, and the measured rates (:class:`Rates`, from the file
-shipped with the package, :data:`~synth.sound.radiation.rules.RATES`) that turn them into
-seconds.
+"""The estimates' records: the :class:`Budget` they must fit, the memory a render holds
+(:class:`MemoryParts`), the radiation stage's work (:class:`RadiationWork`), a render's and a
+live body's whole estimate (:class:`CostEstimate`, :class:`BodyCost`), what of them is beyond
+a budget with what to change, and the shipped :class:`Rates` that turn them into seconds.
 """
 
 from __future__ import annotations
@@ -53,13 +50,10 @@ ENVIRONMENT = {
 
 @dataclass(frozen=True)
 class Budget:
-    """The most work a render may take on: ``max_modes`` (plate modes),
-    ``max_pulse_points`` (points of one force pulse's grid), ``max_memory_bytes`` (bytes
-    of the arrays :class:`CostEstimate` sizes) and ``max_solver_flops`` (floating-point
-    operations of a cold mode solve: its time, in units that do not depend on the
-    machine) and ``max_radiation_work`` (rectangle-term equivalents of a microphone's
-    Rayleigh sums, :class:`RadiationWork`: the radiation stage's time in the same way,
-    whichever rule it takes)."""
+    """The most work a render may take on: ``max_modes`` (plate modes), ``max_pulse_points``
+    (of one force pulse's grid), ``max_memory_bytes`` (of the arrays :class:`CostEstimate`
+    sizes), ``max_solver_flops`` (of a cold mode solve) and ``max_radiation_work``
+    (rectangle-term equivalents of a microphone's sums): times in machine-free units."""
 
     max_modes: int = DEFAULT_MAX_MODES
     max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
@@ -75,9 +69,7 @@ class Budget:
 
     @classmethod
     def from_environment(cls) -> Budget:
-        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
-        ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS`` and
-        ``$SYNTH_MAX_RADIATION_WORK`` (each defaulting to this module's constant)."""
+        """The budget of the variables of :data:`ENVIRONMENT` (each with its default)."""
         values = [
             checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
         ]
