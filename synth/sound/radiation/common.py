@@ -268,11 +268,9 @@ def _exp_scaled(u, halvings):
 @compiled(nogil=True)
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):  # noqa: PLR0913
     """Rayleigh sums over points ``j0 <= j < j1``: ``dist`` (n,) ``R_j - Rm`` and ``wr``
-    (n,) ``w_j / R_j``, m; ``phi`` (n, m) shapes; ``qr`` ``Re(s_k / c) / 2^halvings`` and
-    ``qi`` ``Im(s_k / c)``, 1/m, with ``|qr_k dist_j| <= 1`` and ``|qi_k dist_j| < 2^19 pi``;
-    into the accumulators ``acc_re``, ``acc_im``, ``mag`` (m,). Points are taken four at a
-    time (to keep the vector units busy), their terms added in point order: the same sums,
-    term by term, as one point at a time."""
+    (n,) ``w_j / R_j``, m; ``phi`` (n, m) shapes; ``qr``, ``qi`` as :class:`Poles` (1/m,
+    ``|qr_k dist_j| <= 1``, ``|qi_k dist_j| < 2^19 pi``); into ``acc_re``, ``acc_im``, ``mag``
+    (m,). Four points at a time (the vector units busy), added in point order."""
     m = phi.shape[1]
     j = j0
     while j + 4 <= j1:

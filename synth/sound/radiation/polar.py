@@ -161,10 +161,8 @@ def _circle_points(radii, size, listener, kb, tol, refine) -> _Circles:
 def _apply_separable_rule(sep, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
     in ``active`` (indices), and the number of points, by the polar rule of ``setup``
-    refined by ``refine`` (radii ``radii``, m, with weights ``wr``). At each radius the
-    angular sums are over the arcs on the plate, or, when those off the plate are shorter,
-    the whole circle in closed form minus the arcs off it; only the factors those modes use
-    enter the angular products."""
+    refined by ``refine`` (``radii``, m, with weights ``wr``; :class:`_Circles`); only the
+    factors those modes use enter the angular products."""
     xl, yl, zl = setup.listener
     m = active.size
     rows_x, xi = np.unique(sep.x_index[active], return_inverse=True)
