@@ -228,9 +228,9 @@ def _measured_sums(monkeypatch) -> list:
 
     calls, original = [], rectangle.apply_rule
 
-    def counted(shape_fn, xs, wx, ys, wy, listener, q, *rest):
-        calls.append((xs.size * ys.size, q.size))
-        return original(shape_fn, xs, wx, ys, wy, listener, q, *rest)
+    def counted(shape_fn, grid, listener, r_mid, poles, chunk):
+        calls.append((grid.xs.size * grid.ys.size, poles.qr.size))
+        return original(shape_fn, grid, listener, r_mid, poles, chunk)
 
     monkeypatch.setattr(rectangle, "apply_rule", counted)
     return calls

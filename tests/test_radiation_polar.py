@@ -99,13 +99,14 @@ def test_plate_gains_crossover():
     """plate_gains takes the rule choose_rule names: the rectangle rule for a few modes
     of a small plate (its cost below the polar rule's, whose angular sums every mode
     shares), the polar rule for a large plate's many modes; cached under the rule."""
-    from synth.constants import SOUND_SPEED
     from synth.sound.radiation import rules
+    from synth.sound.radiation.common import check_settings
 
     small = _ss_modes(max_frequency=1500.0)
     s, kb = _poles(small)
     res = R.plate_gains(small, (0.1, 0.05, 0.2), s, max_wavenumber=kb, full_output=True)
-    problem = R._problem(small, (0.1, 0.05, 0.2), s, kb, SOUND_SPEED, 1e-6, R.DEFAULT_MAX_POINTS)
+    checked = check_settings(kb, max_points=R.DEFAULT_MAX_POINTS)
+    problem = R._problem(small, (0.1, 0.05, 0.2), s, checked)
     assert res.rule == rules.choose_rule(problem).rule.name == "rectangle"
     big = _ss_modes(1.0, 0.8, 0.001, 10000.0)
     s, kb = _poles(big)

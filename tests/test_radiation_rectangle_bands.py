@@ -93,14 +93,15 @@ def test_product_sums_equal_the_rectangle_sums_of_the_same_shapes(paired):
     """apply_product_rule forms the shapes from factor tables inside the sums: on one grid
     its integrals and in-phase integrals equal apply_rule's (to rounding: the same terms,
     summed in another order)."""
-    from synth.sound.radiation.rectangle import apply_product_rule, apply_rule, panel_nodes
+    from synth.sound.radiation.common import Poles
+    from synth.sound.radiation.rectangle import apply_product_rule, apply_rule, panel_grid
 
     (a, b), shape_fn, factor_fn, s, _ = _product_case(paired)
-    xs, wx = panel_nodes(np.linspace(0.0, a, 7), np.full(6, 11))
-    ys, wy = panel_nodes(np.linspace(0.0, b, 5), np.full(4, 13))
-    listener, q, r_mid = (0.12, 0.07, 0.05), s / 343.0, 0.2
-    want = apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, 0, 100)
-    got = apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, 0)
+    grid = panel_grid(np.linspace(0.0, a, 7), np.linspace(0.0, b, 5), np.full(6, 11),
+                      np.full(4, 13))  # fmt: skip
+    listener, poles, r_mid = (0.12, 0.07, 0.05), Poles.of(s / 343.0, 0), 0.2
+    want = apply_rule(shape_fn, grid, listener, r_mid, poles, 100)
+    got = apply_product_rule(factor_fn, grid, listener, r_mid, poles)
     np.testing.assert_allclose(got[0], want[0], rtol=1e-12, atol=1e-13 * np.abs(want[0]).max())
     np.testing.assert_allclose(got[1], want[1], rtol=1e-12)
 

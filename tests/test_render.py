@@ -11,7 +11,7 @@ import synth
 from synth.errors import ParameterError
 from synth.physics import modes as plate_modes
 from synth.physics.scene import Accelerometer, Microphone, Scene
-from synth.sound.modal_bank import synthesize
+from synth.sound.modal_bank import Bank, synthesize
 from synth.sound.render import render
 
 #: The default scene under the thesis' model (Hertz pulses; the measured model's viscoelastic
@@ -120,7 +120,7 @@ def test_ringing_matches_the_continuous_response_at_subsample_onsets():
     fs = 48000.0
     t0 = (1000 + 0.37) / fs
     audio, info = synthesize(
-        [res], np.array([t0]), poles, b, out_gain, fs, floor=1e-20, max_samples=4000
+        [res], np.array([t0]), Bank(poles, b, out_gain, fs), floor=1e-20, max_samples=4000
     )
     L = pulse_transforms(res, poles)
     C = -1j * b / wd * out_gain * L

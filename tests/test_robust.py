@@ -59,7 +59,7 @@ def test_long_contact_kernel_matches_the_short_one(monkeypatch):
 
     def bank_audio():
         audio, _ = modal_bank.synthesize(
-            impacts, onsets, model.poles, excitation, model.output, 48000,
+            impacts, onsets, modal_bank.Bank(model.poles, excitation, model.output, 48000),
             floor=0.0, max_samples=48000,
         )  # fmt: skip
         return audio

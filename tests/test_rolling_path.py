@@ -14,7 +14,7 @@ from synth import ParameterError
 from synth.physics import rolling_kernels as _k
 from synth.physics.path import c_rr_deceleration, simulate_path
 from synth.physics.scene import Accelerometer, Ball, Contact, Plate, Rolling, Scene
-from synth.sound.modal_bank import synthesize
+from synth.sound.modal_bank import Bank, synthesize
 from synth.sound.render import modal_model, render
 from synth.sound.rolling import ModeState, drive_modes, path_excitation
 
@@ -164,9 +164,9 @@ def test_per_impact_excitation_with_equal_rows_is_the_shared_one():
     b = model.excitation((0.4, 0.3))
     rows = np.array([b, b])
     common = dict(floor=1e-4, max_samples=4800)
-    shared, _ = synthesize(hits, [0.001, 0.02], model.poles, b, model.output, SAMPLERATE,
+    shared, _ = synthesize(hits, [0.001, 0.02], Bank(model.poles, b, model.output, SAMPLERATE),
                            direct=model.direct(b), **common)  # fmt: skip
-    each, _ = synthesize(hits, [0.001, 0.02], model.poles, rows, model.output, SAMPLERATE,
+    each, _ = synthesize(hits, [0.001, 0.02], Bank(model.poles, rows, model.output, SAMPLERATE),
                          direct=np.array([model.direct(b)] * 2), **common)  # fmt: skip
     assert np.array_equal(shared, each)
 

@@ -1,21 +1,13 @@
 """What a render will cost, known before the work starts, and the budget it must fit
 (docs/cli.md, "The cost of a render, and its budget").
 
-Every size is estimated from the scene and options before the modes, gains or bounces are
-computed, so work beyond the budget is refused before it starts: the modes (the asymptotic
-modal density ``N(omega) = S omega / (4 pi) sqrt(rho h / D)``, Cremer, Heckl & Petersson,
-*Structure-Borne Sound*, 3rd ed., eq. 5.118, and the solver's flops by LAPACK's counts,
-Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3); the longest contact and the audio;
-the radiation rule's terms (counted by :mod:`synth.sound.radiation.rules` and weighed by
-the shipped rates, so a cut does not depend on the machine); and memory
-(:class:`MemoryParts`, an upper estimate of the traced peak).
-
-:func:`estimate_render` and :func:`body_cost` (a live body, checked by :func:`check_body`)
-give the whole estimate; :class:`Budget` bounds it (``$SYNTH_MAX_MODES``,
-``$SYNTH_MAX_PULSE_POINTS``, ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS``,
-``$SYNTH_MAX_RADIATION_WORK`` or :func:`synth.render`'s keywords) with a message naming
-what is too big and what to change. :mod:`~.records` holds the records, the budget and the
-measured rates, :mod:`~.estimates` the estimates.
+Every size is estimated from the scene and options before any mode, gain or bounce is
+computed, so work beyond the :class:`Budget` is refused before it starts, with a message
+naming what is too big and what to change: the modes (modal density, Cremer, Heckl &
+Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118; the solver's flops by LAPACK's
+counts, Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3), the longest contact, the
+audio, the radiation rule's terms (:mod:`synth.sound.radiation.rules`) and memory.
+:mod:`~.records` holds the records, the budget and the rates, :mod:`~.estimates` the estimates.
 """
 
 from __future__ import annotations

@@ -139,9 +139,9 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
         edge = edge_split(kb, f_low, f_max, n_low, lambda f: modal_count(plate, f), SOUND_SPEED)
     return plate_problem(
         plate,
-        listener.position,
-        modes,
         f_max,
+        listener=listener.position,
+        modes=modes,
         kb=kb,
         qa=_acoustic(f_max),
         tol=RADIATION_TOL,

@@ -1,10 +1,7 @@
-"""The estimates' records: the budget they must fit (:class:`Budget`, its defaults and
-environment variables), the memory a render holds (:class:`MemoryParts`), the radiation
-stage's work (:class:`RadiationWork`), a render's whole estimate (:class:`CostEstimate`), a
-live body's (:class:`BodyCost`), the cold mode solve's (:class:`SolverCost`), what of them is
-beyond a budget with what to change, and the measured rates (:class:`Rates`, from the file
-shipped with the package, :data:`~synth.sound.radiation.rules.RATES`) that turn them into
-seconds.
+"""The estimates' records: the :class:`Budget` they must fit, the memory a render holds
+(:class:`MemoryParts`), the radiation stage's work (:class:`RadiationWork`), a render's and a
+live body's whole estimate (:class:`CostEstimate`, :class:`BodyCost`), what of them is beyond
+a budget with what to change, and the shipped :class:`Rates` that turn them into seconds.
 """
 
 from __future__ import annotations
@@ -21,26 +18,21 @@ from synth.sound.radiation.rules import RATES
 #: Default budget: modes of the plate below the highest rendered frequency (each costs
 #: its shape, its radiation gain and its share of every impact's transform).
 DEFAULT_MAX_MODES = 100_000
-
 #: Default budget: points of the longest force pulse's grid (``4 omega_max tau / pi``:
 #: about 10 s of contact at 24 kHz).
 DEFAULT_MAX_PULSE_POINTS = 2_000_000
-
 #: Default budget: memory of the arrays the estimate sizes, bytes.
 DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
-
 #: Default budget: floating-point operations of a cold mode solve (the budget of time in
 #: machine-independent units: a dense symmetric eigensolver runs at a few GFLOP/s on one
 #: core, so minutes; about four times the costliest shipped preset's solve).
 DEFAULT_MAX_SOLVER_FLOPS = 10**12
-
 #: Default budget: rectangle-term equivalents of the radiation stage's sums
 #: (:class:`RadiationWork`: each rule's shape terms and Rayleigh terms, each a multiply-add
 #: or an exponential, weighted to the rectangle rule's time by
 #: :func:`synth.sound.radiation.rules.rule_weights`). Every shipped preset's first four rules
 #: fit at 48 kHz (tests/test_cost.py).
 DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
-
 #: The environment variables of :meth:`Budget.from_environment`, with their defaults.
 ENVIRONMENT = {
     "SYNTH_MAX_MODES": DEFAULT_MAX_MODES,
@@ -53,13 +45,10 @@ ENVIRONMENT = {
 
 @dataclass(frozen=True)
 class Budget:
-    """The most work a render may take on: ``max_modes`` (plate modes),
-    ``max_pulse_points`` (points of one force pulse's grid), ``max_memory_bytes`` (bytes
-    of the arrays :class:`CostEstimate` sizes) and ``max_solver_flops`` (floating-point
-    operations of a cold mode solve: its time, in units that do not depend on the
-    machine) and ``max_radiation_work`` (rectangle-term equivalents of a microphone's
-    Rayleigh sums, :class:`RadiationWork`: the radiation stage's time in the same way,
-    whichever rule it takes)."""
+    """The most work a render may take on: ``max_modes`` (plate modes), ``max_pulse_points``
+    (of one force pulse's grid), ``max_memory_bytes`` (of the arrays :class:`CostEstimate`
+    sizes), ``max_solver_flops`` (of a cold mode solve) and ``max_radiation_work``
+    (rectangle-term equivalents of a microphone's sums): times in machine-free units."""
 
     max_modes: int = DEFAULT_MAX_MODES
     max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
@@ -75,9 +64,7 @@ class Budget:
 
     @classmethod
     def from_environment(cls) -> Budget:
-        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
-        ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS`` and
-        ``$SYNTH_MAX_RADIATION_WORK`` (each defaulting to this module's constant)."""
+        """The budget of the variables of :data:`ENVIRONMENT` (each with its default)."""
         values = [
             checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
         ]
@@ -151,24 +138,20 @@ def time_row(cost, rates: Rates | None) -> tuple[str, str]:
 #: Bytes per audio sample held at once: the synthesis' float64 buffer, the scaled copy
 #: the level makes (:func:`synth.store.audio.normalize`) and the float32 :class:`Render`.
 AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
-
 #: Complex values per mode that the modal model and the synthesis hold besides the
 #: transform's workspace: the poles, their one-sample step and the response
 #: coefficients (:func:`synth.sound.modal_bank.pulse.bank_coefficients`, each also
 #: as real and imaginary parts), the excitation and output gains, the modes'
 #: frequencies, decay rates and masses, the ring bank's state and masks.
 MODE_VALUES = 20
-
 #: Dense n x n float64 arrays alive in a Rayleigh-Ritz solve with vectors
 #: (:func:`synth.physics.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
 #: copy LAPACK's dpotrf/dpotri factor and invert in place, the eigenvectors, and dsyevd's
 #: workspace of ``1 + 6 n + 2 n^2`` doubles (LAPACK Users' Guide, 3rd ed., DSYEVD).
 SOLVER_SQUARES = 5
-
 #: The same for the check basis, eigenvalues only: the matrix and its copy (the
 #: workspace is ``1 + 2 n``).
 CHECK_SQUARES = 2
-
 #: Chunks of shape values (points x modes, float64, at most ``CHUNK_BYTES`` each, see
 #: :mod:`synth.sound.radiation.common`) alive at once while a microphone's gains are
 #: summed: the chunk the worker threads add up and the next one being evaluated
@@ -176,7 +159,6 @@ CHECK_SQUARES = 2
 #: evaluation's temporaries of the same size (the two factor tables taken at the modes'
 #: indices and their product, :mod:`synth.physics.modes.closed_form`).
 RADIATION_CHUNKS = 5
-
 #: Tolerance of the microphone's gains (:func:`synth.sound.radiation.plate_gains`'
 #: default, which a render uses).
 RADIATION_TOL = 1e-6
@@ -360,7 +342,6 @@ class CostEstimate(_Checked):
 
 #: What to change when a render's arrays are beyond the memory budget.
 RENDER_MEMORY_ADVICE = "lower max_tail, max_duration, max_frequency or the samplerate"
-
 #: The same for a live body's.
 BODY_MEMORY_ADVICE = "lower the engine's max_frequency or samplerate, or max_voices"
 

@@ -27,7 +27,7 @@ from synth.sound.listener import (
     modal_model,
     nearest_distance,
 )
-from synth.sound.modal_bank import synthesize
+from synth.sound.modal_bank import Bank, synthesize
 from synth.sound.options import (
     MAX_SAMPLERATE,
     OPTIONS,
@@ -187,10 +187,7 @@ def _render_drop(
     audio, bank = synthesize(
         [imp.result for imp in sequence],
         times + model.delay - start,
-        model.poles,
-        excitation,
-        model.output,
-        fs,
+        Bank(model.poles, excitation, model.output, fs),
         floor=floor,
         settled_weight=weights,
         direct=model.direct(excitation),

@@ -27,7 +27,7 @@ import numpy as np
 from synth import checks
 from synth.compilation import compiled
 from synth.errors import ParameterError
-from synth.sound.modal_bank import bank_coefficients, kept_modes, ring_bank, synthesize
+from synth.sound.modal_bank import Bank, bank_coefficients, kept_modes, ring_bank, synthesize
 
 #: Points of the mode-shape table per bending wavelength of the highest mode.
 POINTS_PER_WAVELENGTH = 32
@@ -505,7 +505,7 @@ def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
     onsets = np.array([i.time for i in impacts]) - origin_time
     max_samples = int(math.ceil((impacts.duration - origin_time + o.max_tail) * fs))
     return synthesize(
-        [i.result for i in impacts], onsets, model.poles, excitation, model.output, fs,
+        [i.result for i in impacts], onsets, Bank(model.poles, excitation, model.output, fs),
         floor=floor, direct=direct, max_samples=max_samples, pulse_points=o.pulse_points,
     )  # fmt: skip
 

@@ -36,7 +36,7 @@ from synth.sound.modal_bank.pulse import (
     transform_pulse,
     transform_workspace,
 )
-from synth.sound.modal_bank.synthesis import kept_modes, synthesize
+from synth.sound.modal_bank.synthesis import Bank, kept_modes, synthesize
 from synth.sound.modal_bank.transform_kernels import (
     RICHARDSON_MAX_PHASE,
     WORK_ROWS,
@@ -46,7 +46,7 @@ from synth.sound.modal_bank.transform_kernels import (
 
 __all__ = [
     "LONG_CONTACT_NEPERS", "PULSE_POINTS", "RICHARDSON_MAX_PHASE", "SUB", "TILE", "WORK_ROWS",
-    "BankCoefficients", "ImpactExcitation", "PulseLayout", "bank_coefficients",
+    "Bank", "BankCoefficients", "ImpactExcitation", "PulseLayout", "bank_coefficients",
     "impact_excitation", "impact_transform", "inject_amplitudes", "kept_modes",
     "long_impact_transform", "power_table", "pulse_layout", "remainder", "ring_bank", "ring_modes",
     "samples_in_contact", "synthesize", "transform_pulse", "transform_workspace",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -19,13 +20,22 @@ from synth.sound.modal_bank.pulse import (
 )
 
 
+class Bank(NamedTuple):
+    """The modes a bank rings: ``poles`` (K,) ``p_k = -sigma_k + i omega_dk`` (rad/s, below
+    Nyquist), ``excitation`` ``b_k = phi_k(x0) / M_k`` (1/kg; (K,) or one row per impact),
+    listener gains ``output`` (K,) (``phi_k(xp) p_k^2`` for acceleration, ``G_k p_k`` for a
+    microphone), at ``samplerate`` Hz."""
+
+    poles: np.ndarray
+    excitation: np.ndarray
+    output: np.ndarray
+    samplerate: float
+
+
 def synthesize(
     impacts,
     onsets,
-    poles,
-    excitation,
-    output,
-    samplerate,
+    bank: Bank,
     *,
     floor,
     settled_weight=None,
@@ -33,19 +43,17 @@ def synthesize(
     max_samples=None,
     pulse_points=PULSE_POINTS,
 ):
-    """Mix the ringing of every mode after every impact: the contacts ``impacts`` (time
-    order) starting at ``onsets`` (I,) (s on the audio timeline, sub-sample); the modes'
-    ``poles`` (K,) ``p_k = -sigma_k + i omega_dk`` (rad/s, below Nyquist), ``excitation``
-    ``b_k = phi_k(x0) / M_k`` (1/kg; (K,) or one row per impact) and listener gains
-    ``output`` (K,) (``phi_k(xp) p_k^2`` for acceleration, ``G_k p_k`` for a microphone) at
-    ``samplerate`` Hz; ``floor`` the omission floor (a fraction of the reference
+    """Mix the ringing of every mode of ``bank`` (:class:`Bank`) after every impact: the
+    contacts ``impacts`` (time order) starting at ``onsets`` (I,) (s on the audio timeline,
+    sub-sample); ``floor`` the omission floor (a fraction of the reference
     amplitude); ``settled_weight`` the weight ``m g`` (N) a settled impact leaves on the
     plate; ``direct`` an accelerometer's ``phi_k(xp) b_k`` of the direct term inside
     contacts; ``max_samples`` the output's length cap; ``pulse_points`` (>= 5) the fewest
     points of each pulse's grid. Returns the audio (float64) and a dict of figures
     (``n_modes_rendered``, ``mode_samples``, ``reference``, ``length``, ``bank_seconds``
     and ``transform_seconds`` in s, ...)."""
-    fs = float(samplerate)
+    poles, excitation, output, fs = bank
+    fs = float(fs)
     onsets = np.asarray(onsets, dtype=float)
     if onsets.size and not np.min(onsets) >= 0.0:
         raise ParameterError(
@@ -107,18 +115,7 @@ def synthesize(
         else (0, 0, 0.0)
     )
     t_bank = time.perf_counter() - t_bank
-    if direct is None:
-        mass_lines = np.zeros(I)
-    else:
-        mass_lines = np.broadcast_to(np.sum(np.asarray(direct).real, axis=-1), (I,))
-    for (idx, resp, off_f), mass_line in zip(contact_samples, mass_lines):
-        ok = idx < length
-        if not ok.any():
-            continue
-        out[idx[ok]] += resp[ok]
-        if direct is not None:
-            out[idx[ok]] += off_f[ok] * mass_line
-        last = max(last, int(idx[ok][-1]) + 1)
+    last = _add_contacts(out, contact_samples, direct, last)
     length = max(1, min(length, last))
     out = out[:length]
     # what is left out at the end of the audio: the kept modes' remainder there, and the
@@ -136,6 +133,26 @@ def synthesize(
         left_at_end=left,
     )
     return out, info
+
+
+def _add_contacts(out, contact_samples, direct, last: int) -> int:
+    """Add each impact's response inside its contact (and an accelerometer's ``direct``
+    term) to ``out``; the end of what is written, ``last`` or later."""
+    if direct is None:
+        mass_lines = np.zeros(len(contact_samples))
+    else:
+        mass_lines = np.broadcast_to(
+            np.sum(np.asarray(direct).real, axis=-1), (len(contact_samples),)
+        )
+    for (idx, resp, off_f), mass_line in zip(contact_samples, mass_lines):
+        ok = idx < out.size
+        if not ok.any():
+            continue
+        out[idx[ok]] += resp[ok]
+        if direct is not None:
+            out[idx[ok]] += off_f[ok] * mass_line
+        last = max(last, int(idx[ok][-1]) + 1)
+    return last
 
 
 def kept_modes(bounds, reference, floor) -> tuple[np.ndarray, float]:

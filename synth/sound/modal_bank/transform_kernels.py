@@ -19,7 +19,6 @@ from synth.vecmath import cis, exp_small, halvings_for
 #: Largest phase step ``omega h`` (rad) of the pulse grid at which a mode's transform is
 #: extrapolated (see :func:`impact_transform`); the grid keeps ``omega_max h <= pi / 4``.
 RICHARDSON_MAX_PHASE = 0.5
-
 #: Rows of the transforms' workspace (K-vectors of :func:`impact_transform`).
 WORK_ROWS = 20
 

@@ -3,15 +3,10 @@
 
 The plate ``[0, a] x [0, b]`` lies in an infinite rigid baffle at ``z = 0``; a mode's normal
 velocity ``phi_k exp(s t)`` gives the pressure ``H_k(s) exp(s t)``, Pa per m/s, with
-``H_k(s) = (rho s / (2 pi)) Int phi_k exp(-s R / c) / R dA`` for any complex ``s``. A
-reference delay ``R0 / c`` may be factored out (:func:`distance`, :func:`delay`).
-
-The rules: :func:`rayleigh_gains` (:mod:`~.rectangle`, any shapes), :func:`separable_gains`
-and :func:`summed_gains` (:mod:`~.polar`, products ``X_i(x) Y_j(y)`` and sums of them), and
-for the dynamic edge effect modes the rectangle rule band by band; :mod:`~.rules` takes the
-cheapest one that holds the convergence test's bound (:func:`~.common.refine`), its cost counted
-before any mode is solved. :func:`plate_gains` computes a :class:`synth.physics.modes.Modes`'
-gains by the chosen rule, kept in memory and on disk (:mod:`~.cache`).
+``H_k(s) = (rho s / (2 pi)) Int phi_k exp(-s R / c) / R dA`` for any complex ``s``.
+:func:`plate_gains` computes a :class:`synth.physics.modes.Modes`' gains by the rule
+:mod:`~.rules` chooses (:func:`rayleigh_gains`, :func:`separable_gains`,
+:func:`summed_gains`, or the rectangle rule band by band), cached (:mod:`~.cache`).
 """
 
 from __future__ import annotations
@@ -21,7 +16,7 @@ import math
 import numpy as np
 
 from synth import checks
-from synth.constants import AIR_DENSITY, SOUND_SPEED
+from synth.constants import SOUND_SPEED
 from synth.errors import ParameterError
 from synth.physics.modes import Modes
 from synth.sound.radiation.cache import (
@@ -44,28 +39,27 @@ from synth.sound.radiation.common import (
 )
 from synth.sound.radiation.polar import separable_gains, summed_gains
 from synth.sound.radiation.rectangle import rayleigh_gains
-from synth.sound.radiation.rules import choose_rule, edge_split, plate_problem
+from synth.sound.radiation.rules import RULES, choose_rule, edge_split, plate_problem
 
 __all__ = [
     "RadiationResult", "rayleigh_gains", "separable_gains", "summed_gains", "plate_gains", "delay",
     "distance", "cache_info", "clear_memory_cache",
 ]  # fmt: skip
 
-#: Most points of one rule of :func:`plate_gains` unless the caller gives ``max_points``.
-DEFAULT_MAX_POINTS = 4_000_000
+DEFAULT_MAX_POINTS = 4_000_000  # most points of one rule of plate_gains by default
 
 
 def rectangle_points(size, kappa: float, tol: float = 1e-6) -> float:
-    """Points of the rectangle rule's first rule on a plate of ``size`` (a, b), metres,
-    for the wavenumber ``kappa`` (bending plus acoustic, rad/m) and tolerance ``tol``,
-    estimated from its longest panels (24 points each, ``2 w24 / kappa`` long)."""
+    """Points of the rectangle rule's first rule on a plate of ``size`` (a, b), m, for the
+    wavenumber ``kappa`` (rad/m) and ``tol``, from its longest panels (24 points each)."""
     per_metre = MAX_ORDER * kappa / (2.0 * half_phase(MAX_ORDER, 0.1 * tol))
     return (size[0] * per_metre + 1.0) * (size[1] * per_metre + 1.0)
 
 
-def _problem(modes, listener, q_s, kb, c, tol, max_points):
+def _problem(modes, listener, q_s, checked):
     """The :class:`~synth.sound.radiation.rules.Problem` of ``modes`` heard at ``listener``
-    for the poles ``q_s`` (rad/s) with the bending wavenumber ``kb`` (rad/m)."""
+    for the poles ``q_s`` (rad/s) with the checked settings ``checked``."""
+    kb, c = checked.kb, checked.c
     frequencies = np.asarray(modes.angular_frequencies) / (2.0 * math.pi)
     f_max = float(frequencies[-1]) if frequencies.size else 0.0
     edge, split = modes.edge_effect(), None
@@ -80,60 +74,39 @@ def _problem(modes, listener, q_s, kb, c, tol, max_points):
     else:
         shapes = "summed" if modes.summed() is not None else "any"
     qa = float(np.max(np.abs(q_s))) / c if q_s.size else 0.0
-    return plate_problem(modes.plate, listener, len(modes), f_max, kb=kb, qa=qa, tol=tol,
-                         max_points=max_points, edge=split, shapes=shapes)  # fmt: skip
+    return plate_problem(modes.plate, f_max, listener=listener, modes=len(modes), kb=kb, qa=qa,
+                         tol=checked.tol, max_points=checked.max_points, edge=split,
+                         shapes=shapes)  # fmt: skip
 
 
-def plate_gains(
-    modes,
-    listener_position,
-    s,
-    *,
-    max_wavenumber,
-    air_density=AIR_DENSITY,
-    sound_speed=SOUND_SPEED,
-    reference_distance=None,
-    tol=1e-6,
-    max_points=DEFAULT_MAX_POINTS,
-    full_output=False,
-    cache=True,
-):
-    """:func:`rayleigh_gains` (its arguments and result, read-only; ``s`` one complex
-    frequency per mode, rad/s) of a :class:`~synth.physics.modes.Modes` by the chosen rule,
-    kept in memory and on disk (``cache`` False: computed afresh, nothing stored). The key
-    holds everything that determines the result; files ``radiation-gains-*.npz`` beside the
-    mode cache are written atomically, and an unreadable one is rewritten."""
+def plate_gains(modes, listener_position, s, *, full_output=False, cache=True, **settings):
+    """:func:`rayleigh_gains` (its keywords ``settings`` and result, read-only; ``s`` one
+    complex frequency per mode, rad/s) of a :class:`~synth.physics.modes.Modes` by the chosen
+    rule (``max_points`` default :data:`DEFAULT_MAX_POINTS`), kept in memory and on disk
+    (``cache`` False: computed afresh, nothing stored). The key holds everything that
+    determines the result; files ``radiation-gains-*.npz`` beside the mode cache are written
+    atomically, and an unreadable one is rewritten."""
     if not isinstance(modes, Modes):
         raise ParameterError(f"modes={modes!r} must be a synth.physics.modes.Modes")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     listener = check_listener(listener_position)
     q_s = check_poles(s, len(modes))
-    checked = check_settings(
-        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
-    )
-    kb, c, tol = checked.kb, checked.c, checked.tol
-    rule = None
+    settings.setdefault("max_points", DEFAULT_MAX_POINTS)
+    checked = check_settings(**settings)
+    rule = RULES[0]  # the rectangle rule: no modes, nothing to sum
     if q_s.size:
-        rule = choose_rule(_problem(modes, listener, q_s, kb, c, tol, max_points)).rule
-    settings = dict(max_wavenumber=kb, air_density=checked.rho, sound_speed=c,
-                    reference_distance=checked.r0, tol=tol, max_points=max_points)  # fmt: skip
+        problem = _problem(modes, listener, q_s, checked)
+        rule = choose_rule(problem).rule
 
     def compute():
-        if rule is None:
-            size = (modes.plate.length, modes.plate.width)
-            return frozen(
-                rayleigh_gains(modes.shapes, size, listener, q_s, full_output=True, **settings)
-            )
-        return frozen(rule.gains(modes, listener, q_s, settings))
+        return frozen(rule.gains(modes, listener, q_s, checked.keywords()))
 
     if not cache:
         result = compute()
         CACHE.count("computed")
     else:
-        key = gains_key(
-            modes, listener, q_s, checked, "rectangle" if rule is None else type(rule).__name__
-        )
+        key = gains_key(modes, listener, q_s, checked, type(rule).__name__)
         result = CACHE.get(key)
         if result is None:
             result = load_gains(key, q_s.size)
@@ -146,7 +119,7 @@ def plate_gains(
     if full_output:
         return result
     if not result.success:
-        warn_unconverged("plate_gains", result, tol)
+        warn_unconverged("plate_gains", result, checked.tol)
     return result.gains
 
 

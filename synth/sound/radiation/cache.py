@@ -1,9 +1,6 @@
-"""The cache of :func:`synth.sound.radiation.plate_gains`: gains in memory and on disk.
-
-The gains of a :class:`synth.physics.modes.Modes` are kept in memory and on disk
-(``radiation-gains-*.npz`` beside the plate-mode cache, ``$SYNTH_CACHE_DIR`` if set), keyed
-by everything that determines them, so that a scene rendered again (in this process or
-another) does not repeat the integral.
+"""The cache of :func:`synth.sound.radiation.plate_gains`: gains in memory and on disk
+(``radiation-gains-*.npz`` beside the plate-mode cache), keyed by everything that determines
+them, so that a scene rendered again (in this process or another) does not repeat the integral.
 """
 
 from __future__ import annotations
@@ -92,32 +89,24 @@ def load_gains(key: str, m: int):
         if not path.is_file():
             return None
         with load_npz(path) as z:
-            if str(z["key"][()]) != key:
-                return None
-            gains, error, coherent, panels = (
-                z[f] for f in ("gains", "error", "coherent", "panels")
-            )
-            n_points, refinements, status = (
-                int(z[f][()]) for f in ("n_points", "refinements", "status")
-            )
-            message = str(z["message"][()])
-            rule = str(z["rule"][()]) if "rule" in z.files else "rectangle"
-        sums = (gains, error, coherent)
+            f = {name: z[name][()] for name in ("key", *_FIELDS)}
+        sums = (f["gains"], f["error"], f["coherent"])
+        n_points, refinements, status = (int(f[k]) for k in ("n_points", "refinements", "status"))
         ok = (
-            gains.dtype == np.complex128
+            str(f["key"]) == key
+            and f["gains"].dtype == np.complex128
             and all(v.shape == (m,) and np.all(np.isfinite(v)) for v in sums)
-            and panels.shape == (2,)
+            and f["panels"].shape == (2,)
             and status in (0, 1, 2)
-            and n_points >= 0
-            and refinements >= 0
-            and rule in ("rectangle", "polar", "banded")
+            and min(n_points, refinements) >= 0
+            and str(f["rule"]) in ("rectangle", "polar", "banded")
         )
         if not ok:
             return None
-        panels = (int(panels[0]), int(panels[1]))
         return frozen(
-            RadiationResult(gains, error.astype(float), coherent.astype(float), n_points,
-                            refinements, panels, status == 0, status, message, rule)
+            RadiationResult(f["gains"], f["error"].astype(float), f["coherent"].astype(float),
+                            n_points, refinements, tuple(int(p) for p in f["panels"]),
+                            status == 0, status, str(f["message"]), str(f["rule"]))
         )  # fmt: skip
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None

@@ -1,17 +1,11 @@
-"""What the rules of the Rayleigh integral (:mod:`synth.sound.radiation`) share: their
-result, the argument checks, Gauss-Legendre rules, the numba kernel of the sums and the
-convergence test (:func:`refine`).
-
-The kernel adds, for a chunk of quadrature points and every mode, the terms of
-``Int phi_k exp(-s_k (R - Rm) / c) / R dA`` (one exponential per mode and point) and of the
-in-phase integral ``Int |phi_k| / R dA``; it runs without the GIL, so that the rules can
-share the sums between worker threads.
+"""What the rules of the Rayleigh integral share: their result, the argument checks,
+Gauss-Legendre rules, the numba kernel of the sums (run without the GIL, shared between
+worker threads) and the convergence test (:func:`refine`).
 
 The first rule is checked by one with 1.25 times the points per axis, refined again (up to
 six times) while any mode fails ``|H_fine - H_coarse| <= tol * max(|H_fine|, 1e-4 S_k)``,
 ``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA >= |H_k|`` the in-phase gain (the floor
-keeps round-off from dominating modes that cancel below -80 dB). The finer rule's gains are
-returned.
+keeps round-off from dominating modes that cancel below -80 dB).
 """
 
 from __future__ import annotations
@@ -20,6 +14,7 @@ import functools
 import math
 import warnings
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -81,6 +76,12 @@ class Settings:
     tol: float
     max_points: int
 
+    def keywords(self) -> dict:
+        """These settings as the keywords of :func:`~.rectangle.rayleigh_gains`."""
+        names = ("max_wavenumber", "air_density", "sound_speed", "reference_distance")
+        values = (self.kb, self.rho, self.c, self.r0)
+        return dict(zip(names, values), tol=self.tol, max_points=self.max_points)
+
     def factors(self, q_s, r_mid):
         """Per mode of poles ``q_s`` (rad/s): the gain's factor ``rho s / (2 pi) exp(-s (r_mid
         - R0) / c)`` of the sums about ``r_mid`` (m), and the in-phase bound's ``rho |s| /
@@ -139,8 +140,8 @@ def check_size(size) -> tuple[float, float]:
 
 
 def distance_range(size, listener) -> tuple[float, float]:
-    """``(r_min, r_max)``, metres: the distances from the listener ``(x, y, z)`` to the
-    nearest and the farthest point of the plate ``[0, a] x [0, b]`` (``size``)."""
+    """``(r_min, r_max)``, m: the distances from the listener ``(x, y, z)`` to the nearest
+    and the farthest point of the plate ``[0, a] x [0, b]`` (``size``)."""
     a, b = size
     xl, yl, zl = listener
     dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
@@ -151,12 +152,10 @@ def distance_range(size, listener) -> tuple[float, float]:
 
 
 def nearest_distance(size, listener) -> float:
-    """Distance (m) from the microphone ``listener`` (x, y, z) to the nearest point of the
-    plate ``[0, a] x [0, b]`` (``size``)."""
+    """Distance (m) from ``listener`` (x, y, z) to the nearest point of the plate."""
     a, b = size
     xl, yl, z = listener
-    dx = max(0.0, -xl, xl - a)
-    dy = max(0.0, -yl, yl - b)
+    dx, dy = max(0.0, -xl, xl - a), max(0.0, -yl, yl - b)
     return math.sqrt(dx * dx + dy * dy + z * z)
 
 
@@ -267,13 +266,11 @@ def _exp_scaled(u, halvings):
 
 
 @compiled(nogil=True)
-def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):  # noqa: PLR0913
     """Rayleigh sums over points ``j0 <= j < j1``: ``dist`` (n,) ``R_j - Rm`` and ``wr``
-    (n,) ``w_j / R_j``, m; ``phi`` (n, m) shapes; ``qr`` ``Re(s_k / c) / 2^halvings`` and
-    ``qi`` ``Im(s_k / c)``, 1/m, with ``|qr_k dist_j| <= 1`` and ``|qi_k dist_j| < 2^19 pi``;
-    into the accumulators ``acc_re``, ``acc_im``, ``mag`` (m,). Points are taken four at a
-    time (to keep the vector units busy), their terms added in point order: the same sums,
-    term by term, as one point at a time."""
+    (n,) ``w_j / R_j``, m; ``phi`` (n, m) shapes; ``qr``, ``qi`` as :class:`Poles` (1/m,
+    ``|qr_k dist_j| <= 1``, ``|qi_k dist_j| < 2^19 pi``); into ``acc_re``, ``acc_im``, ``mag``
+    (m,). Four points at a time (the vector units busy), added in point order."""
     m = phi.shape[1]
     j = j0
     while j + 4 <= j1:
@@ -297,10 +294,10 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
             acc_im[k] = (((acc_im[k] - a0 * s0) - a1 * s1) - a2 * s2) - a3 * s3
             mag[k] = (((mag[k] + abs(f0)) + abs(f1)) + abs(f2)) + abs(f3)
         j += 4
-    for j in range(j, j1):
-        d = dist[j]
-        w = wr[j]
-        row = phi[j]
+    for rest in range(j, j1):
+        d = dist[rest]
+        w = wr[rest]
+        row = phi[rest]
         for k in range(m):
             f = row[k] * w
             amp = f * _exp_scaled(-qr[k] * d, halvings)
@@ -311,7 +308,7 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
 
 
 @compiled(nogil=True)
-def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
+def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):  # noqa: PLR0913
     """As :func:`_rows_fast` with ``halvings = 0``, with libm exp, cos and sin (any arguments)."""
     m = phi.shape[1]
     for j in range(j0, j1):
@@ -328,7 +325,7 @@ def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
 
 
 @compiled(nogil=True)
-def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):  # noqa: PLR0913
     """Add the Rayleigh sums of points ``j0 <= j < j1`` to acc_re, acc_im, mag (see
     _rows_fast; ``halvings < 0``: the libm kernel). Runs without the GIL."""
     if halvings >= 0:
@@ -337,14 +334,31 @@ def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
         _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag)
 
 
-def add_sums(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
-    """:func:`accumulate` for callers in Python, choosing the kernel here so that only the
-    one the sums need compiles (its first compile noted on stderr)."""
+class Poles(NamedTuple):
+    """The poles as the sums kernels take them: ``qr = Re(s / c) / 2^halvings`` and ``qi =
+    Im(s / c)`` (1/m, contiguous), and ``halvings`` (:func:`exp_halvings`)."""
+
+    qr: np.ndarray
+    qi: np.ndarray
+    halvings: int
+
+    @classmethod
+    def of(cls, q: np.ndarray, halvings: int) -> Poles:
+        """The kernels' poles of ``q = s / c`` (1/m) with ``halvings``."""
+        qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
+        return cls(qr, np.ascontiguousarray(q.imag), halvings)
+
+
+def add_sums(j0, j1, dist, wr, phi, poles: Poles, acc) -> None:
+    """:func:`accumulate` into ``acc`` (3, m: real, imaginary, magnitude) for callers in
+    Python, choosing the kernel here so that only the one the sums need compiles (its first
+    compile noted on stderr)."""
+    qr, qi, halvings = poles
     if halvings >= 0:
         announce("radiation")
-        _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
+        _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
     else:
-        _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag)
+        _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc[0], acc[1], acc[2])
 
 
 def exp_halvings(q: np.ndarray, spread: float) -> int:

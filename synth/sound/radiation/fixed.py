@@ -2,15 +2,11 @@
 shapes evaluated once, the gains at a new microphone one pass of the sums, for the live
 engine's moving listener (:meth:`synth.live.Body.move`).
 
-Panels are all as long along each axis, at most ``h = 2 w24 / kappa`` and
-:data:`NEAR_FIELD_HEIGHT`: a panel no longer than the height ``z`` keeps the singularities
-of ``1 / R`` outside its Bernstein ellipse of parameter ``2 + sqrt(5)``, more than the
-rectangle rule's worst graded panel, so for a microphone that high the fixed panels meet
-every bound of the rectangle rule's first rule. Modes are split in bands of wavenumber
-(:func:`~synth.sound.radiation.rules.mode_bands`), each with its own grid; a lower
-microphone is left to :func:`plate_gains`. Tests compare the gains with :func:`plate_gains`
-within ``2 tol``. Cost: one exponential per mode and point (:attr:`ListenerGrid.points`);
-memory 8 bytes per mode and point (:attr:`ListenerGrid.nbytes`).
+Equal panels at most ``h = 2 w24 / kappa`` and :data:`NEAR_FIELD_HEIGHT` long: one no longer
+than the height ``z`` keeps the singularities of ``1 / R`` outside its Bernstein ellipse of
+parameter ``2 + sqrt(5)``, more than the rectangle rule's worst graded panel, so the fixed
+panels meet every bound of its first rule. Modes in bands of wavenumber
+(:func:`~synth.sound.radiation.rules.mode_bands`), each with its own grid.
 """
 
 from __future__ import annotations
@@ -26,6 +22,7 @@ from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError, SynthError
 from synth.sound.radiation.common import (
     MAX_ORDER,
+    Poles,
     add_sums,
     check_listener,
     distance_range,
@@ -133,19 +130,15 @@ class ListenerGrid:
         r_min, r_max = distance_range(self.size, (xl, yl, zl))
         r_mid = 0.5 * (r_max + r_min)
         q = self._q
-        halvings = exp_halvings(q, 0.5 * (r_max - r_min))
-        qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
-        qi = np.ascontiguousarray(q.imag)
+        poles = Poles.of(q, exp_halvings(q, 0.5 * (r_max - r_min)))
         acc = np.zeros((3, q.size))
 
         def add(bands):
             for band in bands:
                 r = np.sqrt((band.x - xl) ** 2 + (band.y - yl) ** 2 + zl * zl)
                 k0, k1 = band.start, band.stop
-                add_sums(
-                    0, r.size, r - r_mid, band.w / r, band.phi,
-                    qr[k0:k1], qi[k0:k1], halvings, acc[0, k0:k1], acc[1, k0:k1], acc[2, k0:k1],
-                )  # fmt: skip
+                band_poles = Poles(poles.qr[k0:k1], poles.qi[k0:k1], poles.halvings)
+                add_sums(0, r.size, r - r_mid, band.w / r, band.phi, band_poles, acc[:, k0:k1])
 
         if len(self._shares) == 1:
             add(self._shares[0])

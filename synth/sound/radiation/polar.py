@@ -3,18 +3,13 @@
 (:func:`summed_gains`) (docs/physics.md, "Radiation").
 
 About the microphone's projection ``R = sqrt(r^2 + z^2)`` does not depend on ``theta``, so
-``Int phi_k exp(-s R / c) / R dA = Int (r / R) exp(-s R / c) Phi_k(r) dr`` with
-``Phi_k(r)`` the integral of the shape over the arcs at radius ``r`` on the plate. For
-shapes ``X_i(x) Y_j(y)`` the angular sums of every mode are one matrix product at each
-radius; a whole circle is ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean value theorem of the
-Helmholtz equation), so each radius sums the shorter of the arcs on or off the plate. For
-``phi_k = sum_ij C_kij X_i Y_j`` the angular sums ``A_ij`` serve every mode and ``Phi_k =
-sum_ij C_kij A_ij`` (:meth:`synth.physics.modes.SummedShapes.combine`). Angular points:
-Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger), radial
-panels with breakpoints where the arcs change (both :mod:`~.angular`).
-Each mode is refined alone (:func:`~.common.refine`). The in-phase bounds ``S_k`` come from a
-rectangle rule that resolves the shapes but not the acoustic phase. Blocks of radii run on
-numba's threads, their sums added in a fixed order.
+``Int phi_k exp(-s R / c) / R dA = Int (r / R) exp(-s R / c) Phi_k(r) dr``, ``Phi_k(r)`` the
+shape's integral over the arcs at radius ``r`` on the plate: for ``X_i(x) Y_j(y)`` one matrix
+product per radius for every mode, a whole circle ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean
+value theorem of the Helmholtz equation), so each radius sums the shorter of the arcs on or
+off the plate; for ``phi_k = sum_ij C_kij X_i Y_j``, ``Phi_k = sum_ij C_kij A_ij`` from angular
+sums ``A_ij`` shared by every mode. Grids: :mod:`~.angular`. Each mode is refined alone; the
+in-phase bounds ``S_k`` come from a rectangle rule that resolves the shapes only.
 """
 
 from __future__ import annotations
@@ -46,6 +41,7 @@ from synth.sound.radiation.common import (
     CHUNK_BYTES,
     MAX_ORDER,
     REFINE,
+    Poles,
     RadiationResult,
     Settings,
     add_sums,
@@ -121,12 +117,23 @@ def _factor_subset(rows, in_use):
     return None if rows.size == int(in_use.max()) + 1 else rows
 
 
-def _circle_points(radii, size, listener, kb, tol, refine):
-    """Angular points of the separable rule at each of ``radii`` (m): ``(whole, theta,
-    weights, ends)``. At radius ``i`` the points ``ends[i] : ends[i + 1]`` of ``theta``
-    (rad) and ``weights`` lie on the arcs on the plate (``whole[i] = 0``) or, when those
-    off the plate are shorter, on the arcs off it (``whole[i] = 1``: the whole circle in
-    closed form minus these)."""
+@dataclass(frozen=True)
+class _Circles:
+    """Angular points of the separable rule at each of a block's radii: at radius ``i`` the
+    points ``ends[i] : ends[i + 1]`` of ``x``, ``y`` (m) and ``w`` lie on the arcs on the
+    plate (``whole[i] = 0``; clipped to it, rounding) or, when those off the plate are
+    shorter, on the arcs off it (``whole[i] = 1``: the whole circle in closed form minus
+    these, their weights negative)."""
+
+    whole: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    ends: np.ndarray
+
+
+def _circle_points(radii, size, listener, kb, tol, refine) -> _Circles:
+    """The :class:`_Circles` of ``radii`` (m)."""
     a, b = size
     xl, yl, _ = listener
     whole = np.zeros(radii.size)
@@ -140,22 +147,23 @@ def _circle_points(radii, size, listener, kb, tol, refine):
         these = arc_panels(float(r), kb, tol, refine, arcs)
         counts[i] = sum(n * p for _, _, n, p in these)
         panels += these
-    theta, weights = panels_points(panels)
-    ends = np.concatenate(([0], np.cumsum(counts)))
-    return whole, theta, weights, ends
+    theta, w = panels_points(panels)
+    on = np.repeat(whole == 0.0, counts)
+    r_point = np.repeat(radii, counts)
+    x = xl + r_point * np.cos(theta)
+    y = yl + r_point * np.sin(theta)
+    x[on] = np.clip(x[on], 0.0, a)
+    y[on] = np.clip(y[on], 0.0, b)
+    w[~on] *= -1.0
+    return _Circles(whole, x, y, w, np.concatenate(([0], np.cumsum(counts))))
 
 
 def _apply_separable_rule(sep, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
     in ``active`` (indices), and the number of points, by the polar rule of ``setup``
-    refined by ``refine`` (radii ``radii``, m, with weights ``wr``). At each radius the
-    angular sums are over the arcs on the plate, or, when those off the plate are shorter,
-    the whole circle in closed form minus the arcs off it; only the factors those modes use
-    enter the angular products."""
-    size, listener, kb, tol = setup.size, setup.listener, setup.settings.kb, setup.tol_panel
-    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
-    a, b = size
-    xl, yl, zl = listener
+    refined by ``refine`` (``radii``, m, with weights ``wr``; :class:`_Circles`); only the
+    factors those modes use enter the angular products."""
+    xl, yl, zl = setup.listener
     m = active.size
     rows_x, xi = np.unique(sep.x_index[active], return_inverse=True)
     rows_y, yi = np.unique(sep.y_index[active], return_inverse=True)
@@ -163,17 +171,9 @@ def _apply_separable_rule(sep, setup, radii, wr, refine, active):
     take_y = _factor_subset(rows_y, sep.y_index)
     wavenumbers = np.ascontiguousarray(sep.mode_wavenumbers()[active])
     # 2 pi phi_k(xl, yl): the whole circle's integral over J_0(k r)
-    centre = (
-        2.0
-        * math.pi
-        * (
-            sep.x_values(np.array([xl]), take_x)[0, xi]
-            * sep.y_values(np.array([yl]), take_y)[0, yi]
-        )
-    )
-    q = q[active]
-    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
-    qi = np.ascontiguousarray(q.imag)
+    centre = 2.0 * math.pi * (sep.x_values(np.array([xl]), take_x)[0, xi]
+                              * sep.y_values(np.array([yl]), take_y)[0, yi])  # fmt: skip
+    poles = Poles.of(setup.q[active], setup.halvings)
     # blocks of radii (one block of shape values at most CHUNK_BYTES), at least two per
     # worker; worker w takes blocks w, w + workers, ... into its own accumulators, so that
     # the result does not depend on the timing
@@ -190,16 +190,9 @@ def _apply_separable_rule(sep, setup, radii, wr, refine, active):
         """Add the radii ``start : start + rows`` to ``acc_w``; their points."""
         rr = radii[start : start + rows]
         phi = np.zeros((rr.size, m))
-        whole, theta, w, ends = _circle_points(rr, size, listener, kb, tol, refine)
-        # points on the plate up to rounding; those of a whole circle's arcs off it count
-        # negatively
-        on = np.repeat(whole == 0.0, np.diff(ends))
-        r_point = np.repeat(rr, np.diff(ends))
-        x = xl + r_point * np.cos(theta)
-        y = yl + r_point * np.sin(theta)
-        x[on] = np.clip(x[on], 0.0, a)
-        y[on] = np.clip(y[on], 0.0, b)
-        w[~on] *= -1.0
+        c = _circle_points(rr, setup.size, setup.listener, setup.settings.kb, setup.tol_panel,
+                           refine)  # fmt: skip
+        x, y, w, ends = c.x, c.y, c.w, c.ends
         for i in np.flatnonzero(ends[1:] > ends[:-1]):
             pts = slice(ends[i], ends[i + 1])
             fx = sep.x_values(x[pts], take_x)
@@ -209,11 +202,11 @@ def _apply_separable_rule(sep, setup, radii, wr, refine, active):
             else:
                 single_thread_product(np.ascontiguousarray((fx * w[pts, None]).T), fy, sums)
                 phi[i] = sums[xi, yi]
-        _add_circle_sums(rr, whole, wavenumbers, centre, phi)
+        _add_circle_sums(rr, c.whole, wavenumbers, centre, phi)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        add_sums(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
-        return theta.size
+        add_sums(0, rr.size, big_r - setup.r_mid, weight, phi, poles, acc_w)
+        return w.size
 
     def worker(w):
         sums = np.empty((rows_x.size, rows_y.size))
@@ -254,15 +247,12 @@ def _apply_summed_rule(shapes, setup, radii, wr, refine, active):
     """As :func:`_apply_separable_rule` for summed shapes: the angular sums ``A`` serve
     every mode; only the modes ``active`` are combined from them and take exponentials."""
     listener, kb, tol = setup.listener, setup.settings.kb, setup.tol_panel
-    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
     a, b = setup.size
     xl, yl, zl = listener
     m = active.size
-    q = q[active]
     every = m == shapes.n_modes
-    acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
-    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
-    qi = np.ascontiguousarray(q.imag)
+    acc = np.zeros((3, m))  # real, imaginary, unused
+    poles = Poles.of(setup.q[active], setup.halvings)
     rows = max(1, int(CHUNK_BYTES // (8 * max(m, shapes.n_x * shapes.n_y))))
     n_points = 0
     for start in range(0, radii.size, rows):
@@ -278,17 +268,17 @@ def _apply_summed_rule(shapes, setup, radii, wr, refine, active):
         phi = shapes.combine(sums, None if every else active)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        add_sums(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
-    return acc_re + 1j * acc_im, n_points
+        add_sums(0, rr.size, big_r - setup.r_mid, weight, phi, poles, acc)
+    return acc[0] + 1j * acc[1], n_points
 
 
 def _summed_in_phase(shapes, setup):
     """``Int |phi_k| / R dA`` of summed shapes on :func:`~.rectangle.in_phase_grid`."""
     m = shapes.n_modes
-    xs, wx, ys, wy = in_phase_grid(setup.size, setup.listener, setup.settings.kb, setup.tol_panel)
+    grid = in_phase_grid(setup.size, setup.listener, setup.settings.kb, setup.tol_panel)
     chunk = max(1, int(CHUNK_BYTES // (8 * max(m, 1))))
-    zero = np.zeros(m, complex)
-    return apply_rule(shapes.values, xs, wx, ys, wy, setup.listener, zero, setup.r_mid, 0, chunk)[1]
+    zero = Poles.of(np.zeros(m, complex), 0)
+    return apply_rule(shapes.values, grid, setup.listener, setup.r_mid, zero, chunk)[1]
 
 
 @dataclass(frozen=True)
@@ -333,11 +323,20 @@ def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarS
     return _PolarSetup(size, listener, q_s, checked, q, tol_panel, panels, orders, r_mid, halvings)
 
 
-def _polar_gains(shapes, n_modes, listener_position, s, settings, full_output, in_phase, apply,
-                 caller):  # fmt: skip
+@dataclass(frozen=True)
+class _PolarKind:
+    """A polar rule's parts: ``in_phase(shapes, setup)`` the modes' in-phase integrals,
+    ``apply`` its sums (as :func:`_apply_separable_rule`), ``caller`` its public name."""
+
+    in_phase: object
+    apply: object
+    caller: str
+
+
+def _polar_gains(kind: _PolarKind, shapes, n_modes, listener_position, s, settings, full_output):
     """The gains (a :class:`RadiationResult` if ``full_output``) of ``shapes`` by the polar
-    rule whose sums are ``apply`` (as :func:`_apply_separable_rule`), each mode refined alone;
-    ``in_phase(shapes, setup)`` the modes' in-phase integrals."""
+    rule ``kind``, each mode refined alone."""
+    in_phase, apply, caller = kind.in_phase, kind.apply, kind.caller
     size = (shapes.length, shapes.width)
     setup = _polar_setup(size, n_modes, listener_position, s, settings)
     checked = setup.settings
@@ -381,9 +380,15 @@ def separable_gains(shapes, listener_position, s, *, full_output=False, **settin
 
     if not isinstance(shapes, SeparableShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
-    return _polar_gains(shapes, shapes.x_index.size, listener_position, s, settings,
-                        full_output, _separable_in_phase, _apply_separable_rule,
-                        "separable_gains")  # fmt: skip
+    return _polar_gains(
+        _PolarKind(_separable_in_phase, _apply_separable_rule, "separable_gains"),
+        shapes,
+        shapes.x_index.size,
+        listener_position,
+        s,
+        settings,
+        full_output,
+    )
 
 
 def summed_gains(shapes, listener_position, s, *, full_output=False, **settings):
@@ -394,5 +399,12 @@ def summed_gains(shapes, listener_position, s, *, full_output=False, **settings)
 
     if not isinstance(shapes, SummedShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
-    return _polar_gains(shapes, shapes.n_modes, listener_position, s, settings, full_output,
-                        _summed_in_phase, _apply_summed_rule, "summed_gains")  # fmt: skip
+    return _polar_gains(
+        _PolarKind(_summed_in_phase, _apply_summed_rule, "summed_gains"),
+        shapes,
+        shapes.n_modes,
+        listener_position,
+        s,
+        settings,
+        full_output,
+    )

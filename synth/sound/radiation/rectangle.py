@@ -2,12 +2,10 @@
 Gauss-Legendre panels along x and y, for any shapes.
 
 Panels are at most ``h = 2 w24 / kappa`` long, ``kappa = max_wavenumber + max|s| / c``
-(rad/m) the integrand's fastest oscillation and ``w24`` the largest half-panel phase that
-24-point Gauss-Legendre integrates to ``tol / 10``; towards the microphone's projection they
-are graded (at most ``2 max(z, d)`` long) so that the near-singular ``1 / R`` peak is
-resolved for any height ``z > 0`` (docs/physics.md, "Radiation"). Shapes are evaluated in
-chunks of about 32 MB while worker threads sum the previous chunk without the GIL, each
-worker on a fixed share, so the result does not depend on timing.
+(rad/m) and ``w24`` the largest half-panel phase that 24-point Gauss-Legendre integrates to
+``tol / 10``; towards the microphone's projection they are graded (at most ``2 max(z, d)``
+long) so that the ``1 / R`` peak is resolved for any height ``z > 0`` (docs/physics.md,
+"Radiation").
 """
 
 from __future__ import annotations
@@ -15,18 +13,19 @@ from __future__ import annotations
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
 from synth.compilation import announce, compiled
-from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.radiation.common import (
     CHUNK_BYTES,
     GRADING,
     MAX_ORDER,
     REFINE,
+    Poles,
     RadiationResult,
     accumulate,
     add_sums,
@@ -84,6 +83,20 @@ def panel_orders(ends: np.ndarray, kappa, tol: float) -> np.ndarray:
     )
 
 
+class Grid(NamedTuple):
+    """A tensor grid: nodes ``xs`` and ``ys`` (m) and their weights ``wx``, ``wy`` (m)."""
+
+    xs: np.ndarray
+    wx: np.ndarray
+    ys: np.ndarray
+    wy: np.ndarray
+
+
+def panel_grid(ex, ey, ox, oy) -> Grid:
+    """The :class:`Grid` of the panels ``ex`` x ``ey`` with ``ox`` and ``oy`` points."""
+    return Grid(*panel_nodes(ex, ox), *panel_nodes(ey, oy))
+
+
 def panel_nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Gauss-Legendre nodes (m) and weights of the panels ``ends`` with ``orders`` points."""
     xs, ws = [], []
@@ -95,14 +108,13 @@ def panel_nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.concatenate(xs), np.concatenate(ws)
 
 
-def in_phase_grid(size, listener, kb: float, tol: float):
-    """Nodes and weights ``(xs, wx, ys, wy)`` of the polar rules' in-phase bounds: the
-    rectangle rule of wavenumber ``2 kb`` (rad/m) refined once, which resolves the shapes
-    and the ``1 / R`` peak but not the acoustic phase."""
+def in_phase_grid(size, listener, kb: float, tol: float) -> Grid:
+    """The :class:`Grid` of the polar rules' in-phase bounds: the rectangle rule of
+    wavenumber ``2 kb`` (rad/m) refined once, which resolves the shapes and the ``1 / R``
+    peak but not the acoustic phase."""
     ex, ey, px0, py0 = first_rule(size[0], size[1], listener, 2.0 * kb, tol)
-    xs, wx = panel_nodes(ex, np.ceil(px0 * REFINE).astype(np.int64))
-    ys, wy = panel_nodes(ey, np.ceil(py0 * REFINE).astype(np.int64))
-    return xs, wx, ys, wy
+    refined = (np.ceil(p * REFINE).astype(np.int64) for p in (px0, py0))
+    return panel_grid(ex, ey, *refined)
 
 
 def _workers() -> int:
@@ -110,19 +122,18 @@ def _workers() -> int:
     return max(1, numba.get_num_threads() - 1)
 
 
-def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
+def apply_rule(shape_fn, grid: Grid, listener, r_mid, poles: Poles, chunk):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA`` on
-    the grid ``xs`` x ``ys`` (m), ``chunk`` points at a time. While the worker threads (one
-    less than numba's) add up one chunk without the GIL, this thread evaluates ``shape_fn``
-    on the next; each worker owns its accumulators and a fixed share of every chunk, so the
-    result does not depend on the timing."""
+    ``grid``, ``chunk`` points at a time. While the worker threads (one less than numba's)
+    add up one chunk without the GIL, this thread evaluates ``shape_fn`` on the next; each
+    worker owns its accumulators and a fixed share of every chunk, so the result does not
+    depend on the timing."""
     xl, yl, zl = listener
-    m, ny = q.size, ys.size
+    xs, wx, ys, wy = grid
+    m, ny = poles.qr.size, ys.size
     n_total = xs.size * ny
     workers = _workers()
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
-    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
-    qi = np.ascontiguousarray(q.imag)
     with ThreadPoolExecutor(max_workers=workers) as pool:
         running = []
         for start in range(0, n_total, chunk):
@@ -137,7 +148,7 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
                 job.result()
             running = [
                 pool.submit(add_sums, w * n // workers, (w + 1) * n // workers, dist, wr, phi,
-                            qr, qi, halvings, *acc[w])
+                            poles, acc[w])
                 for w in range(workers)
             ]  # fmt: skip
         for job in running:
@@ -172,7 +183,7 @@ _PRODUCT_BLOCK = 64
 
 
 @compiled(nogil=True)
-def _product_sums(
+def _product_sums(  # noqa: PLR0913
     i0, i1, xs, wx, ys, wy, listener, r_mid, fx, fy, gx, gy, paired, qr, qi, halvings, acc
 ):  # pragma: no cover
     """The sums of :func:`apply_rule` over the grid rows ``i0 <= i < i1`` (nodes ``xs[i]``
@@ -210,13 +221,14 @@ def _product_sums(
             accumulate(np.int64(0), n, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
 
 
-def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
+def apply_product_rule(factor_fn, grid: Grid, listener, r_mid, poles: Poles):
     """As :func:`apply_rule` for shapes given as factor tables (``factor_fn(xs, ys)`` ->
     :class:`ProductFactors`), formed in the sums kernel a block of points at a time. The
     grid's rows are split into one fixed share per numba thread, each with its own
     accumulators, so the result does not depend on the timing."""
+    xs, wx, ys, wy = grid
     f = factor_fn(xs, ys)
-    m = q.size
+    m = poles.qr.size
     fx = _factor_table(f.x_own, xs.size, m)
     fy = _factor_table(f.y_own, ys.size, m)
     paired = f.x_other is not None
@@ -224,14 +236,12 @@ def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
     gy = _factor_table(f.y_other, ys.size, m) if paired else fy
     workers = max(1, min(numba.get_num_threads(), xs.size))
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
-    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
-    qi = np.ascontiguousarray(q.imag)
     args = (xs, wx, ys, wy, np.asarray(listener, dtype=float), r_mid, fx, fy, gx, gy, paired)
     bounds = [w * xs.size // workers for w in range(workers + 1)]
     announce("radiation")
     with ThreadPoolExecutor(max_workers=workers) as pool:
         jobs = [
-            pool.submit(_product_sums, lo, hi, *args, qr, qi, halvings, acc[w])
+            pool.submit(_product_sums, lo, hi, *args, *poles, acc[w])
             for w, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:]))
         ]
         for job in jobs:
@@ -269,20 +279,7 @@ def _check_shapes(phi, n, m):
     return np.ascontiguousarray(arr, dtype=np.float64)
 
 
-def rayleigh_gains(
-    shape_fn,
-    size,
-    listener_position,
-    s,
-    *,
-    max_wavenumber,
-    air_density=AIR_DENSITY,
-    sound_speed=SOUND_SPEED,
-    reference_distance=None,
-    tol=1e-6,
-    max_points=4_000_000,
-    full_output=False,
-):
+def rayleigh_gains(shape_fn, size, listener_position, s, *, full_output=False, **settings):
     """Pressure per unit modal velocity at a microphone, for each mode (Rayleigh integral):
     ``H_k(s_k)``, Pa per (m/s) of modal velocity, (n_modes,) complex; with ``full_output`` a
     :class:`RadiationResult`, else the gains alone with a ``RuntimeWarning`` if the
@@ -292,8 +289,9 @@ def rayleigh_gains(
     at plate positions ``points`` ((n, 2), m from the corner), called on chunks (the array
     returned must not be reused by the next call); ``size`` ``(a, b)`` > 0, m;
     ``listener_position`` ``(x, y, z)``, m, ``z > 0`` above the baffled plate; ``s`` each
-    mode's complex frequency, rad/s; ``max_wavenumber`` >= 0 the modes' largest bending
-    wavenumber, rad/m; ``air_density`` > 0, kg/m^3; ``sound_speed`` > 0, m/s;
+    mode's complex frequency, rad/s. The keywords ``settings``
+    (:func:`~.common.check_settings`): ``max_wavenumber`` >= 0 (required) the modes' largest
+    bending wavenumber, rad/m; ``air_density`` > 0, kg/m^3; ``sound_speed`` > 0, m/s;
     ``reference_distance`` ``R0`` >= 0, m, or None: the gains times ``exp(s_k R0 / c)`` (the
     delay taken out, which keeps a damped pole's growth bounded); ``tol`` in [1e-9, 0.1]:
     ``|error| <= tol * max(|H_k|, 1e-4 S_k)`` (:func:`~.common.refine`); ``max_points`` > 0 the
@@ -302,18 +300,15 @@ def rayleigh_gains(
     if not callable(shape_fn):
         raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
 
-    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
-        chunk = max(1, int(CHUNK_BYTES // (8 * q.size)))
-        return apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
+    def evaluate(grid, listener, r_mid, poles, active):
+        chunk = max(1, int(CHUNK_BYTES // (8 * poles.qr.size)))
+        return apply_rule(shape_fn, grid, listener, r_mid, poles, chunk)
 
-    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
-                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
-                    max_points=max_points)  # fmt: skip
     result = _rule_result(evaluate, size, listener_position, s, settings)
     if full_output:
         return result
     if not result.success:
-        warn_unconverged("rayleigh_gains", result, tol)
+        warn_unconverged("rayleigh_gains", result, check_settings(**settings).tol)
     return result.gains
 
 
@@ -325,21 +320,22 @@ def product_gains(factor_fn, size, listener_position, s, **settings) -> Radiatio
     if not callable(factor_fn):
         raise ParameterError(f"factor_fn={factor_fn!r} must be callable (x, y -> factors)")
 
-    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
+    def evaluate(grid, listener, r_mid, poles, active):
         def factors(x, y):
             return factor_fn(x, y).columns(active)
 
-        return apply_product_rule(factors, xs, wx, ys, wy, listener, q, r_mid, halvings)
+        return apply_product_rule(factors, grid, listener, r_mid, poles)
 
     return _rule_result(evaluate, size, listener_position, s, settings, local_phase=True)
 
 
 def _rule_result(evaluate, size, listener_position, s, settings: dict, local_phase=False):
     """The :class:`RadiationResult` of the rectangle rule (arguments checked here) whose sums
-    ``evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active)`` computes as
-    :func:`apply_rule` does for the modes ``active`` (indices). ``local_phase``: each panel's
-    orders for its own bound of the acoustic phase's rate (:func:`first_rule`), and each mode
-    refined alone; ``settings`` the keywords of :func:`~.common.check_settings`."""
+    ``evaluate(grid, listener, r_mid, poles, active)`` computes as :func:`apply_rule` does
+    for the modes ``active`` (indices, their :class:`~.common.Poles` ``poles``).
+    ``local_phase``: each panel's orders for its own bound of the acoustic phase's rate
+    (:func:`first_rule`), and each mode refined alone; ``settings`` the keywords of
+    :func:`~.common.check_settings`."""
     a, b = check_size(size)
     listener = check_listener(listener_position)
     q_s = check_poles(s)
@@ -386,10 +382,8 @@ def _rule_result(evaluate, size, listener_position, s, settings: dict, local_pha
         )
 
     def rule(level, active):
-        ox, oy = orders(level)
-        xs, wx = panel_nodes(ex, ox)
-        ys, wy = panel_nodes(ey, oy)
-        return evaluate(xs, wx, ys, wy, listener, q[active], r_mid, halvings, active)
+        grid = panel_grid(ex, ey, *orders(level))
+        return evaluate(grid, listener, r_mid, Poles.of(q[active], halvings), active)
 
     factor, scale = settings.factors(q_s, r_mid)
     return refine(rule, npoints, factor, scale, tol, max_points, panels, local_phase)

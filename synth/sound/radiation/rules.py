@@ -1,20 +1,14 @@
-"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, their work,
+"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface (:class:`Rule`)
 and the choice among them (:func:`choose_rule`).
 
 Every rule ends with the same convergence test (:func:`~synth.sound.radiation.common.refine`),
-so each holds the same error bound while its check rule fits ``max_points``; they differ
-in cost, counted before any mode is solved from their own panel builders, per rule of the
-refinement, for the band's largest bending wavenumber ``kb`` and acoustic one ``qa =
-omega_max / c`` (rad/m). The unit is a *term*: a multiply-add, or one exponential, Bessel
-value or shape factor value. Rectangle: per grid point and mode an exponential and a shape
-value's ``terms``. Polar and summed: per angular point the factor values and angular
-products, per radius and mode an exponential and a ``J_0`` (or the Ritz coefficients'
-combination), once the in-phase bounds' rule. The counts bound the work from above
-(selective refinements sum only the modes still failing). :func:`weighted_counts` turns
-terms into rectangle-term equivalents by the rates ``synth bench cost --record`` measured
-and ships (:data:`RATES`), so the choice and the budget's cut (:func:`synth.cost.radiation_work`)
-do not depend on the machine; :func:`choose_rule` takes the cheapest rule that applies and
-fits. ``synth bench rules`` prints each rule's cost and choice.
+so each holds the error bound ``tol`` while its check rule fits ``max_points``; they differ in
+cost, counted before any mode is solved from their own panel builders for the largest bending
+and acoustic wavenumbers ``kb``, ``qa`` (rad/m). The unit is a *term* (a multiply-add, an
+exponential, a Bessel or shape factor value); the shipped rates (:data:`RATES`, ``synth bench
+cost --record``) turn terms into rectangle-term equivalents, so the choice and the budget's
+cut do not depend on the machine. ``synth bench rules`` prints each rule's cost and choice
+on the presets and the scale benchmark's scenes: every rule is chosen on some of them.
 """
 
 from __future__ import annotations
@@ -46,23 +40,17 @@ from synth.sound.radiation.rectangle import (
     rayleigh_gains,
 )
 
-#: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic) of the fastest and the
-#: slowest edge effect mode of one band of :class:`BandedRule`. The rectangle rule's points
-#: grow as ``kappa^2``: bands 1.1 apart put each mode on a grid at most 1.21 times the points
-#: its own wavenumber needs, while each band adds its own panels, factor tables and threads.
+#: Largest ratio of the wavenumbers (bending plus acoustic) of the fastest and the slowest
+#: mode of one band of :class:`BandedRule`: points grow as ``kappa^2``, so each mode's grid
+#: has at most 1.21 times the points it needs, while each band adds its own panels.
 BAND_RATIO = 1.1
-
 #: Bands of frequency, equal in ratio, in which :class:`BandedRule`'s estimate counts the edge
-#: effect modes, each on the grid of its top (:func:`edge_split`): an upper bound of the
-#: rule's own bands of :data:`BAND_RATIO`, known before any mode is solved.
+#: effect modes, each on the grid of its top (:func:`edge_split`).
 EDGE_BANDS = 6
-
-
 #: Terms per radius and mode of the polar rule's radial sums: the exponential and ``J_0``.
 POLAR_RADIAL_TERMS = 2
-#: The rates of the estimate's work, measured by ``synth bench cost --record`` on the machine
-#: named in it and shipped with the package: the mode solver's and each radiation rule's
-#: (terms per second, by the rule's name).
+#: The measured rates of the estimate's work, shipped with the package (``synth bench cost
+#: --record``): the mode solver's and each radiation rule's (terms per second, by name).
 RATES = Path(__file__).parents[2] / "cost_rates.json"
 
 
@@ -140,26 +128,21 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     return out
 
 
-def _in_phase_points(size, listener, kb, tol_panel) -> tuple[int, int]:
-    """Points along x and y of the in-phase rule (:func:`~.rectangle.in_phase_grid`)."""
-    xs, _, ys, _ = in_phase_grid(size, listener, kb, tol_panel)
-    return xs.size, ys.size
-
-
-def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel, basis=None, terms=0):
-    """The polar rule's work for ``modes`` separable modes of ``n_x`` and ``n_y`` factors;
-    with ``basis`` the summed rule's (Ritz modes of ``basis`` coefficients, shape values of
-    ``terms`` terms)."""
-    summed = basis is not None
-    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=not summed)
-    radial = basis + 1 if summed else POLAR_RADIAL_TERMS
+def polar_work(p: Problem, summed: bool) -> RuleWork:
+    """The polar rule's work for the separable modes of ``p`` (``p.factors`` their factors
+    along x and y); with ``summed`` the summed rule's (Ritz modes of ``p.basis``
+    coefficients, shape values of ``p.terms`` terms)."""
+    modes, (n_x, n_y) = p.modes, p.factors
+    grid = _polar_grid(p.size, p.listener, p.kb, p.qa, p.tol_panel, shorter=not summed)
+    radial = p.basis + 1 if summed else POLAR_RADIAL_TERMS
     work = [
         float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * radial
         for radii, angular in grid
     ]
-    xs, ys = _in_phase_points(size, listener, kb, tol_panel)
+    in_phase = in_phase_grid(p.size, p.listener, p.kb, p.tol_panel)
+    xs, ys = in_phase.xs.size, in_phase.ys.size
     if summed:
-        fixed = float(xs * ys) * modes * (1 + terms)
+        fixed = float(xs * ys) * modes * (1 + p.terms)
     else:
         fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
     name = "summed" if summed else "polar"
@@ -188,14 +171,11 @@ class EdgeSplit:
 
 @dataclass(frozen=True)
 class Problem:
-    """What decides a rule's error bound and cost, known before any gain is computed.
-
-    ``size`` (a, b) and ``listener`` (x, y, z), metres; ``modes`` the number of modes;
-    ``kb`` the highest mode's bending wavenumber and ``qa`` the largest acoustic one
-    (``max |s| / c``), rad/m; ``shapes`` "separable" (products ``X_i(x) Y_j(y)``), "summed"
-    (sums of such products), "edge" (Ritz and dynamic edge effect modes, split by ``edge``)
-    or "any"; ``terms`` the terms of one shape value, ``factors`` (n_x, n_y) the factors of
-    the polar rules and ``basis`` the Ritz coefficients per mode."""
+    """What decides a rule's error bound and cost, known before any gain is computed:
+    ``size`` (a, b) and ``listener`` (x, y, z), m; ``modes``; ``kb`` the highest bending and
+    ``qa`` the largest acoustic wavenumber (``max |s| / c``), rad/m; ``shapes`` "separable"
+    (``X_i(x) Y_j(y)``), "summed" (sums of those), "edge" (split by ``edge``) or "any";
+    ``terms`` of one shape value, ``factors`` (n_x, n_y) and ``basis`` (Ritz coefficients)."""
 
     size: tuple
     listener: tuple
@@ -285,7 +265,7 @@ class PolarRule(Rule):
     shapes = ("separable",)
 
     def counts(self, p):
-        return polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel)
+        return polar_work(p, summed=False)
 
     def gains(self, modes, listener, s, settings):
         return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
@@ -299,8 +279,7 @@ class SummedRule(Rule):
     shapes = ("summed",)
 
     def counts(self, p):
-        return polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel,
-                               p.basis, p.terms)  # fmt: skip
+        return polar_work(p, summed=True)
 
     def gains(self, modes, listener, s, settings):
         return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
@@ -459,16 +438,15 @@ def edge_split(kb, f_low, f_max, ritz_modes, count_below, sound_speed) -> EdgeSp
     return EdgeSplit(ritz_modes, ritz_kappa, bands)
 
 
-def plate_problem(
-    plate, listener, modes, f_max, *, kb, qa, tol, max_points, edge=None, shapes=None
-):
-    """The :class:`Problem` of ``modes`` modes of ``plate`` up to ``f_max`` (Hz) heard at
-    ``listener`` (x, y, z, metres), ``kb`` and ``qa`` the bending and acoustic wavenumbers
-    (rad/m), ``edge`` the :class:`EdgeSplit` of a plate past the Ritz crossover; ``shapes``
-    (default: from the plate's boundary) as for :class:`Problem`."""
+def plate_problem(plate, f_max, *, shapes=None, **fields) -> Problem:
+    """The :class:`Problem` of ``plate``'s modes up to ``f_max`` (Hz): ``fields`` its
+    ``listener``, ``modes``, ``kb``, ``qa``, ``tol``, ``max_points`` and ``edge`` (the
+    :class:`EdgeSplit` of a plate past the Ritz crossover); ``shapes`` (default: from the
+    plate's boundary) as for :class:`Problem`."""
     from synth.physics.modes import ritz_factors, shape_terms, solver_sizes
 
     size = (plate.length, plate.width)
+    edge, kb = fields.get("edge"), float(fields["kb"])
     if shapes is None:
         simply = plate.boundary == "simply-supported"
         shapes = "edge" if edge is not None else "separable" if simply else "summed"
@@ -480,15 +458,15 @@ def plate_problem(
         basis = max(solver_sizes(plate, f_max)[0], default=1)
     return Problem(
         size=size,
-        listener=tuple(float(v) for v in listener),
-        modes=int(modes),
-        kb=float(kb),
-        qa=float(qa),
+        listener=tuple(float(v) for v in fields["listener"]),
+        modes=int(fields["modes"]),
+        kb=kb,
+        qa=float(fields["qa"]),
         shapes=shapes,
         terms=shape_terms(plate, f_max),
         factors=factors,
         basis=basis,
-        tol=float(tol),
-        max_points=int(max_points),
+        tol=float(fields["tol"]),
+        max_points=int(fields["max_points"]),
         edge=edge,
     )
