@@ -1,8 +1,6 @@
 """What the plate-mode solutions share: the cache layout's version, the numerical libraries
-of their keys (:func:`numerics_key`), the temporary-array budget of their shapes, the
-plate's aspect ratios, and a matrix product kept on the calling thread
-(:func:`single_thread_product`).
-"""
+of their keys, the temporary-array budget of their shapes, the aspect ratios, and a matrix
+product kept on the calling thread."""
 
 from __future__ import annotations
 
@@ -23,9 +21,8 @@ VERSION = 1
 
 
 def numerics_key() -> dict:
-    """The numerical libraries whose arithmetic sets a solution's last bits: numpy's (and its
-    BLAS), scipy's (its LAPACK and BLAS) and numba's versions. Part of the disk keys, so
-    that a cache directory written under other libraries is not served."""
+    """Versions of numpy, scipy and numba (their BLAS and LAPACK set a solution's last bits):
+    part of the disk keys, so that a cache written under other libraries is not served."""
     import numba
     import scipy
 
@@ -33,9 +30,8 @@ def numerics_key() -> dict:
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE`` multiply-adds,
-    which OpenBLAS runs on the calling thread (a multithreaded product waits for busy cores):
-    square-ish blocks of ``out``, every entry one whole dot product."""
+    """``out[...] = a @ b`` (2-D) by products of at most ``_PIECE`` multiply-adds, which
+    OpenBLAS runs on the calling thread (a multithreaded product waits for busy cores)."""
     n, k = a.shape
     m = b.shape[1]
     rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))

@@ -1,8 +1,7 @@
-"""Large free and clamped plates: a band whose Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS`
-per symmetry class takes the Ritz modes of a low band and the dynamic edge effect modes of
-:mod:`synth.physics.asymptotic_modes` above it (linear cost; within 0.5 % of the Ritz solver,
-docs/physics.md, "Large free and clamped plates").
-"""
+"""Large free and clamped plates: a band whose Ritz problem would exceed
+:data:`CROSSOVER_UNKNOWNS` per class takes the Ritz modes of a low band and the dynamic edge
+effect modes of :mod:`synth.physics.asymptotic_modes` above it (linear cost; within 0.5 %
+of the Ritz solver, docs/physics.md, "Large free and clamped plates")."""
 
 from __future__ import annotations
 
@@ -32,8 +31,8 @@ _MAX_MODES = 2_000_000
 
 
 def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
-    """The band (dimensionless) whose Ritz problem has about ``unknowns`` per class
-    (bisection on the increasing :func:`ritz_unknowns`), at most ``omega_hi``."""
+    """The band (dimensionless, at most ``omega_hi``) whose Ritz problem has about ``unknowns``
+    per class (bisection)."""
     lo, hi = 0.0, omega_hi
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -45,9 +44,9 @@ def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
 
 
 def _seam(omega: np.ndarray, omega_low: float) -> float:
-    """Where the Ritz modes ``omega`` (ascending) hand over to the edge effect ones: the middle of
-    the widest relative gap in the top third of ``omega <= omega_low``, so that an edge effect
-    mode's error does not move it across the seam."""
+    """Where the Ritz modes ``omega`` hand over to the edge effect ones: the middle of the widest
+    relative gap in the top third of ``omega <= omega_low`` (an edge mode's error does not
+    move it across)."""
     band = omega[(omega >= omega_low * 2.0 / 3.0) & (omega <= omega_low)]
     if band.size < 2:
         return omega_low
@@ -87,8 +86,8 @@ class HybridSolution:
         return out
 
     def shapes_of(self, xi, eta, index):
-        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the
-        first modes' shapes, the edge effect ones alone."""
+        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the first modes'
+        shapes, the edge effect ones alone."""
         n_r = int(np.searchsorted(index, self.n_low))
         out = np.empty((xi.size, index.size))
         if n_r:
