@@ -158,16 +158,13 @@ def simulate_bounces(
     options: BounceOptions | None = None,
     **overrides,
 ) -> BounceSequence:
-    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point at release) and compute
-    every impact until the sequence ends.
-
-    ``position``: the impact point, m from a corner (None: far from the edges); ``gravity``:
-    m/s^2; ``contact_law``: one of :data:`synth.physics.scene.CONTACT_LAWS` (None: "shell" for a
-    hollow ball, else "hertz"), its parameters in ``overrides``
-    (:func:`synth.physics.contact_law.contact_parameters`); ``plate_model``: "impedance" (the
-    infinite plate's, blended towards measured values near free edges) or "modal" (the finite
-    plate's modes, :mod:`synth.physics.modal_contact`, ringing from impact to impact);
-    ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give by name."""
+    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point) and compute every
+    impact until the sequence ends. ``position``: the impact point, m from a corner (None: far
+    from the edges); ``gravity``: m/s^2; ``contact_law``: :data:`synth.physics.scene.CONTACT_LAWS`
+    (None: "shell" for a hollow ball, else "hertz"), its parameters in ``overrides``;
+    ``plate_model``: "impedance" (the infinite plate's, blended towards measured values near free
+    edges) or "modal" (the finite plate's ringing modes, :mod:`synth.physics.modal_contact`);
+    ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give."""
     check_type("ball", ball, Ball)
     check_type("plate", plate, Plate)
     h0 = checks.positive("drop_height", drop_height, "metres")

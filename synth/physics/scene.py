@@ -182,15 +182,11 @@ class Plate:
 
     def __post_init__(self):
         _set(self, material=resolve(self.material, "plate.material"))
-        for name in ("length", "width"):
-            size = checks.positive_at_most(
-                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, "metres"
-            )
-            _set(self, **{name: size})
-        h = _closed(
-            "plate.thickness", self.thickness, MIN_PLATE_THICKNESS, MAX_PLATE_SIZE, "metres"
-        )
-        _set(self, thickness=h)
+        for k in ("length", "width"):
+            v = checks.positive_at_most(f"plate.{k}", getattr(self, k), MAX_PLATE_SIZE, "metres")
+            _set(self, **{k: v})
+        h, lo = self.thickness, MIN_PLATE_THICKNESS
+        _set(self, thickness=_closed("plate.thickness", h, lo, MAX_PLATE_SIZE, "metres"))
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -469,12 +465,7 @@ class Scene:
     def __post_init__(self):
         check_type("ball", self.ball, Ball)
         check_type("plate", self.plate, Plate)
-        h = checks.positive_at_most("drop.height", self.drop_height, MAX_DROP_HEIGHT, "metres")
-        if h < MIN_DROP_HEIGHT:
-            raise ParameterError(
-                f"drop.height={self.drop_height!r} must be >= "
-                f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)"
-            )
+        h = _closed("drop.height", self.drop_height, MIN_DROP_HEIGHT, MAX_DROP_HEIGHT, "metres")
         pos = self.plate.centre if self.position is None else self.position
         _set(
             self,

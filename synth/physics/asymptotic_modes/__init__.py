@@ -190,17 +190,11 @@ class EdgeEffectSolution:
 def solution_key(boundary: str, nu: float, aspect: float, omega_max: float) -> str:
     """Everything that sets :func:`solve`'s solution, as canonical JSON known before the solve."""
     return json.dumps(
-        {
-            "method": "edge-effect",
-            "version": _VERSION,
-            "boundary": boundary,
-            "nu": float(nu).hex(),
-            "aspect": float(aspect).hex(),
-            "omega_max": float(omega_max).hex(),
-            "pair_gap": float(_PAIR_GAP).hex(),
-        },
+        {"method": "edge-effect", "version": _VERSION, "boundary": boundary,
+         "nu": float(nu).hex(), "aspect": float(aspect).hex(),
+         "omega_max": float(omega_max).hex(), "pair_gap": float(_PAIR_GAP).hex()},
         sort_keys=True,
-    )
+    )  # fmt: skip
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:

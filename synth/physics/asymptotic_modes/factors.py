@@ -11,6 +11,9 @@ from synth.compilation import compiled
 from synth.physics.asymptotic_modes.ritz import factor_exponentials, factor_moments
 from synth.physics.asymptotic_modes.roots import edge_terms, entire_terms
 
+#: 8-point Gauss-Legendre nodes and weights on [-1, 1], for :func:`_norm`.
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
+
 
 @compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
@@ -88,15 +91,7 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
     """Root mean square of a factor over ``[-h, h]`` (Gauss-Legendre panels)."""
     k = math.sqrt(abs(s)) + math.sqrt(abs(s + 2.0 * so)) + 1.0 / h
     panels = int(k * h / 2.0) + 2
-    # 8-point Gauss-Legendre
-    t = np.array([
-        -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
-        0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363,
-    ])  # fmt: skip
-    w = np.array([
-        0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
-        0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763,
-    ])  # fmt: skip
+    t, w = _GAUSS_NODES, _GAUSS_WEIGHTS
     total = 0.0
     half = h / panels
     for p in range(panels):

@@ -41,36 +41,26 @@ SETTLE_FACTOR = 40.0
 
 @dataclass(frozen=True, eq=False)
 class PlateRinging:
-    """The plate's state under the ball: the band's modes' displacements ``q`` (m) and
-    velocities ``v`` (m/s), the residual's tail displacement ``x_res`` (m, downward) and its
-    lumped modes' ``q_res`` (m) and ``v_res`` (m/s). A plate at rest is all zeros."""
+    """The plate's state under the ball: displacements ``q`` (m) and velocities ``v`` (m/s) of
+    the band's ``n_band`` modes then the residual's lumped modes, and the residual's tail
+    displacement ``x_res`` (m, downward). A plate at rest is all zeros."""
 
     q: np.ndarray
     v: np.ndarray
-    x_res: float = 0.0
-    q_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    v_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    x_res: float
+    n_band: int
 
     @property
     def displacement(self) -> float:
         """Displacement of the surface under the ball, m, positive upward."""
-        return float(self.q.sum()) + float(self.q_res.sum()) - self.x_res
-
-    @classmethod
-    def split(cls, q, v, x_res, n) -> PlateRinging:
-        """The state of ``n`` band modes then the lumped modes' ``q`` (m), ``v`` (m/s)."""
-        return cls(q[:n], v[:n], x_res, q[n:], v[n:])
-
-    def joined(self) -> tuple[np.ndarray, np.ndarray]:
-        """Fresh arrays of ``q`` and ``v`` (m, m/s), the band's modes then the lumped."""
-        return np.concatenate((self.q, self.q_res), dtype=float), np.concatenate(
-            (self.v, self.v_res), dtype=float
-        )
+        n = self.n_band
+        return float(self.q[:n].sum()) + float(self.q[n:].sum()) - self.x_res
 
     @property
     def velocity(self) -> float:
-        """Bending velocity of the surface under the ball (band and lumped modes), m/s, upward."""
-        return float(self.v.sum()) + float(self.v_res.sum())
+        """Bending velocity of the surface under the ball, m/s, positive upward."""
+        n = self.n_band
+        return float(self.v[:n].sum()) + float(self.v[n:].sum())
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,27 +209,27 @@ class ModalContact:
 
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
-        z = np.zeros(self.point.omega.size)
-        zr = np.zeros(self.point.residual_omega.size)
-        return PlateRinging(z, z.copy(), 0.0, zr, zr.copy())
+        p = self.point
+        n = p.omega.size + p.residual_omega.size
+        return PlateRinging(np.zeros(n), np.zeros(n), 0.0, p.omega.size)
 
     def ring(self, state: PlateRinging, duration: float) -> PlateRinging:
         """The plate's state after ringing freely for ``duration`` (s)."""
         d = checks.nonnegative("duration", duration, "s")
         p = self.point
-        q, v = state.joined()
+        q, v = state.q.copy(), state.v.copy()
         if d > 0.0:
             omega, sigma, _ = p.contact_modes
             ring_free(omega, sigma, q, v, d)
         x = state.x_res * math.exp(-p.residual_rate * d)
-        return PlateRinging.split(q, v, x, p.omega.size)
+        return PlateRinging(q, v, x, p.omega.size)
 
     def energy(self, state: PlateRinging) -> float:
         """Energy in ``state`` (J): ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` summed over the modes,
         plus the residual's tail spring ``a x_res^2 / (2 beta_W)``."""
         p = self.point
         omega, _, coupling = p.contact_modes
-        q, v = state.joined()
+        q, v = state.q, state.v
         modal = 0.5 * float(((v**2 + omega**2 * q**2) / coupling).sum())
         return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
 
@@ -252,11 +242,11 @@ class ModalContact:
         n_points = check_points(n_points)
         p = self.point
         state = self.at_rest() if state is None else state
-        shapes = (state.q.shape, state.v.shape, state.q_res.shape, state.v_res.shape)
-        if shapes != (p.omega.shape,) * 2 + (p.residual_omega.shape,) * 2:
+        n = p.omega.size + p.residual_omega.size
+        if state.q.shape != (n,) or state.v.shape != (n,) or state.n_band != p.omega.size:
             raise ParameterError(
-                f"state has {state.q.size} modes and {state.q_res.size} lumped residual modes; "
-                f"this contact has {p.omega.size} and {p.residual_omega.size} (one per mode)"
+                f"state has {state.q.size} oscillators, {state.n_band} of the band; this contact "
+                f"has {n}, {p.omega.size} of the band (one per mode)"
             )
         v_approach = v_in + state.velocity
         if not v_approach > 0.0:
@@ -270,7 +260,7 @@ class ModalContact:
         )  # fmt: skip
         h = ref.separation_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
-        q, v = state.joined()
+        q, v = state.q.copy(), state.v.copy()
         x = np.array([state.x_res])
         pulse = np.zeros((4, max_steps + 1))  # times, forces, gaps and rates at the steps
         e0, w0 = self.energy(state), state.displacement
@@ -282,7 +272,7 @@ class ModalContact:
         announce("modal-contact")
         o = contact_kernel(p.oscillators, q, v, x, law, dy, v_in, h, max_steps, pulse)
         times, forces, gaps, rates = pulse[:, : o.steps + 1].copy()
-        ringing = PlateRinging.split(q, v, float(x[0]), p.omega.size)
+        ringing = PlateRinging(q, v, float(x[0]), p.omega.size)
         e_plate = self.energy(ringing)
         rigid = 0.5 * o.rigid_v**2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
         # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
@@ -306,36 +296,18 @@ class ModalContact:
             f"impedance model: it rests on the plate."
         )  # fmt: skip
         return ModalImpactResult(
-            restitution=o.v / v_in if o.separated and o.v > 0.0 else 0.0,
-            contact_time=t_force,
-            separation_time=o.time,
-            max_penetration=o.dmax,
-            peak_force=o.fmax,
-            impulse=o.impulse,
-            inelasticity=ref.inelasticity,
-            settled=not o.separated,
-            rebound_speed=max(o.v, 0.0) if o.separated else 0.0,
-            plate_energy=plate,
-            energy_residual=residual,
-            success=True,
-            status=0 if o.separated else 1,
-            message=message,
-            n_steps=o.steps,
-            method="modal",
-            step_times=times,
-            step_forces=forces,
-            step_gaps=gaps,
-            step_rates=rates,
-            law_stiffness=self.stiffness,
-            law_exponent=self.exponent,
-            law_dissipation=self.dissipation,
-            law_viscous_time=self.viscous_time,
-            law_yield_penetration=self.yield_penetration,
-            contact_loss=o.contact_loss,
-            ringing=ringing,
-            plate_modal_energy=e_plate,
+            restitution=o.v / v_in if o.separated and o.v > 0.0 else 0.0, contact_time=t_force,
+            separation_time=o.time, max_penetration=o.dmax, peak_force=o.fmax,
+            impulse=o.impulse, inelasticity=ref.inelasticity, settled=not o.separated,
+            rebound_speed=max(o.v, 0.0) if o.separated else 0.0, plate_energy=plate,
+            energy_residual=residual, success=True, status=0 if o.separated else 1,
+            message=message, n_steps=o.steps, method="modal", step_times=times,
+            step_forces=forces, step_gaps=gaps, step_rates=rates, law_stiffness=self.stiffness,
+            law_exponent=self.exponent, law_dissipation=self.dissipation,
+            law_viscous_time=self.viscous_time, law_yield_penetration=self.yield_penetration,
+            contact_loss=o.contact_loss, ringing=ringing, plate_modal_energy=e_plate,
             n_points=n_points,
-        )
+        )  # fmt: skip
 
 
 def next_touch(
@@ -348,7 +320,7 @@ def next_touch(
     g = contact.gravity
     if not g > 0.0:
         raise ParameterError("the ball lands again only with gravity > 0")
-    qs, vs = state.joined()
+    qs, vs = state.q, state.v
     W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / p.oscillators.omega) ** 2).sum())
     v = speed
 

@@ -172,13 +172,20 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
 
 
 @compiled()
-def _yield_force(d, K, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """:func:`_lossy_force` with Thornton's yield (``dy``, m; ``dm``, m, the largest penetration
-    before the step): ``F = K (a + c d')``, ``c = mu a + b r``, ``a`` and ``r`` of
-    :func:`~synth.physics.contact_kernels.equations.yield_law`; and ``dF / d delta``."""
+def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
+    """Force ``F = K (a + c d')``, ``c = mu a + b r`` (N, >= 0) with ``a = d^n``, ``r = d^(n-1)``
+    (Hunt-Crossley for ``b = 0``, viscoelastic Hertz ``b = 3/2 A`` for ``mu = 0``) or, past a
+    yield ``dy`` (m; None: none), Thornton's ``a``, ``r`` of
+    :func:`~synth.physics.contact_kernels.equations.yield_law` (``dm``, m, the largest
+    penetration before the step), at the end of a step whose rate is ``d' = Av - Bv F``,
+    solved for ``F``; and ``dF / dd`` (N/m)."""
     if d <= 0.0:
         return 0.0, 0.0
-    a, r, da, dr = yield_law(d, dy, dm)
+    if dy is not None:
+        a, r, da, dr = yield_law(d, dy, dm)
+    else:
+        r = d ** (n - 1.0)
+        a, da, dr = r * d, n * r, (n - 1.0) * r / d
     c = mu * a + b * r
     dc = mu * da + b * dr
     num = a + c * Av
@@ -187,35 +194,6 @@ def _yield_force(d, K, mu, b, Av, Bv, dy, dm):  # pragma: no cover
     den = 1.0 + c * Bv * K
     F = K * num / den
     return F, K * (da + dc * Av) / den - F * dc * Bv * K / den
-
-
-@compiled()
-def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """Force ``F = K d^(n-1) (d + c d')``, ``c = mu d + b`` (N, >= 0; Hunt-Crossley for ``b = 0``,
-    viscoelastic Hertz ``b = 3/2 A`` for ``mu = 0``) at the end of a step whose rate is
-    ``d' = Av - Bv F``, solved for ``F``, and ``dF / dd`` (N/m); with a yield ``dy`` (m; None:
-    none): :func:`_yield_force`."""
-    if dy is not None:
-        return _yield_force(d, K, mu, b, Av, Bv, dy, dm)
-    if d <= 0.0:
-        return 0.0, 0.0
-    if b == 0.0:
-        s = K * d**n
-        num = 1.0 + mu * Av
-        if num <= 0.0:
-            return 0.0, 0.0
-        den = 1.0 + mu * Bv * s
-        return s * num / den, n * s / d * num / (den * den)
-    r = K * d ** (n - 1.0)
-    c = mu * d + b
-    num = d + c * Av
-    if num <= 0.0:
-        return 0.0, 0.0
-    den = 1.0 + c * Bv * r
-    dr = (n - 1.0) * r / d
-    dden = Bv * (mu * r + c * dr)
-    F = r * num / den
-    return F, (dr * num + r * (1.0 + mu * Av)) / den - F * dden / den
 
 
 @compiled()

@@ -236,15 +236,15 @@ def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedRes
     edges = omega_band * RESIDUAL_RATIO ** np.arange(RESIDUAL_BINS + 1)
     s = [_wavenumber_at(plate, float(w), theory) for w in edges]
     omega, coupling = [], []
+
+    def density(x):  # dmu / ds
+        return float(_coupling_density(plate, x, theory))
+
+    def compliance(x):  # dmu / ds / omega^2
+        return density(x) / float(_mode_frequency(plate, x, theory)) ** 2
+
     for lo, hi in zip(s[:-1], s[1:], strict=True):
-        c = quad(lambda x: float(_coupling_density(plate, x, theory)), lo, hi)[0]
-        k = quad(
-            lambda x: float(
-                _coupling_density(plate, x, theory) / _mode_frequency(plate, x, theory) ** 2
-            ),
-            lo,
-            hi,
-        )[0]
+        c, k = quad(density, lo, hi)[0], quad(compliance, lo, hi)[0]
         omega.append(math.sqrt(c / k))
         coupling.append(c)
     top = float(edges[-1])
@@ -271,16 +271,9 @@ def clear_memory_cache() -> None:
 def _plate_key(plate: Plate, max_frequency: float) -> dict:
     """What the bending modes of ``plate`` to ``max_frequency`` (Hz) depend on."""
     m = plate.material
-    return {
-        "boundary": plate.boundary,
-        "young": float(m.young).hex(),
-        "density": float(m.density).hex(),
-        "poisson": float(m.poisson).hex(),
-        "thickness": float(plate.thickness).hex(),
-        "length": float(plate.length).hex(),
-        "width": float(plate.width).hex(),
-        "max_frequency": float(max_frequency).hex(),
-    }
+    values = dict(young=m.young, density=m.density, poisson=m.poisson, thickness=plate.thickness,
+                  length=plate.length, width=plate.width, max_frequency=max_frequency)  # fmt: skip
+    return {"boundary": plate.boundary, **{k: float(v).hex() for k, v in values.items()}}
 
 
 def band_modes(plate: Plate, max_frequency: float):

@@ -99,15 +99,10 @@ class Modes:
         libraries), for caches of results computed from them."""
         p = self.plate
         return json.dumps(
-            {
-                "solution": self._solution.key,
-                "length": float(p.length).hex(),
-                "width": float(p.width).hex(),
-                "modes": len(self),
-                "numerics": numerics_key(),
-            },
+            {"solution": self._solution.key, "length": float(p.length).hex(),
+             "width": float(p.width).hex(), "modes": len(self), "numerics": numerics_key()},
             sort_keys=True,
-        )
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         p = self.plate

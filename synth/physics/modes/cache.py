@@ -120,10 +120,7 @@ def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache
 def band_key(boundary: str, nu: float, aspect: float, omega_req: float) -> str:
     """The cache key of the solution of exactly the band ``omega_req`` (dimensionless)."""
     return json.dumps(
-        {
-            "solution": solution_key(boundary, nu, aspect),
-            "band": float(omega_req).hex(),
-            "numerics": numerics_key(),
-        },
+        {"solution": solution_key(boundary, nu, aspect), "band": float(omega_req).hex(),
+         "numerics": numerics_key()},
         sort_keys=True,
-    )
+    )  # fmt: skip

@@ -32,14 +32,10 @@ class SimplySupported:
         self.n = n[order]
         self.omega_max = omega_max
         self.key = json.dumps(
-            {
-                "version": VERSION,
-                "boundary": "simply-supported",
-                "aspect": float(aspect).hex(),
-                "omega_max": float(omega_max).hex(),
-            },
+            {"version": VERSION, "boundary": "simply-supported", "aspect": float(aspect).hex(),
+             "omega_max": float(omega_max).hex()},
             sort_keys=True,
-        )
+        )  # fmt: skip
 
     def shapes(self, xi, eta, n_modes):
         out = np.empty((xi.size, n_modes))

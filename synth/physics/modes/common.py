@@ -10,11 +10,9 @@ import numpy as np
 
 # Temporary-array budget of shapes(): elements (8 bytes each).
 CHUNK_ELEMENTS = 1 << 22
-# Largest matrix product shapes() hands to BLAS in one call, multiply-adds. OpenBLAS
-# runs products up to 4 * 65536 multiply-adds on one thread (its default
-# GEMM_MULTITHREAD_THRESHOLD). Shapes are evaluated beside other busy threads (the
-# Rayleigh sums of synth.sound.radiation); a multithreaded product whose helper thread
-# waits for a busy core stalls until that core is free, so each call stays on one thread.
+# Largest matrix product shapes() hands to BLAS in one call, multiply-adds: OpenBLAS runs up
+# to 4 * 65536 on one thread (GEMM_MULTITHREAD_THRESHOLD); beside busy threads (the radiation's
+# sums) a multithreaded product stalls until a helper's core is free.
 _PIECE = 1 << 18
 # Version of the stored solution layout and algorithm; part of the cache key.
 VERSION = 1

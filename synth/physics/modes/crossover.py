@@ -12,19 +12,15 @@ import numpy as np
 from synth.physics.modes.cache import cached_ritz
 from synth.physics.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
 
-#: Relative accuracy of the dynamic edge effect frequencies (with their Rayleigh-Ritz
-#: step) above the Ritz low band of a crossed-over plate, against the Ritz solver
-#: (tests/test_asymptotic_modes.py checks the free and clamped rectangles and squares).
+#: Relative accuracy of the edge effect frequencies above a crossed-over plate's Ritz low band,
+#: against the Ritz solver (tests/test_asymptotic_modes.py).
 EDGE_EFFECT_TOLERANCE = 0.005
-# Crossover to the dynamic edge effect method (synth.physics.asymptotic_modes): a free or
-# clamped band whose Ritz problem would exceed this many unknowns per symmetry class
-# (ritz_unknowns) takes the Ritz modes of a low band only (up to LOW_BAND_UNKNOWNS) and the
-# edge effect modes above it, avoiding the Ritz solve's cubic growth. It lies just above
-# every preset's band at 48 kHz, so their recorded renders keep the Ritz path.
+# Ritz unknowns per symmetry class (ritz_unknowns) beyond which a band takes the Ritz modes of
+# a low band (LOW_BAND_UNKNOWNS) and the edge effect modes above, avoiding the Ritz solve's
+# cubic growth; just above every preset's band at 48 kHz (their renders keep the Ritz path).
 CROSSOVER_UNKNOWNS = 1850
-# Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
-# method's least accurate: corner and beam-like modes; the tests measure its accuracy
-# above a band of 200) exact, in a fraction of a second.
+# Ritz size of a crossed-over plate's low band: its lowest modes (the edge effect method's
+# least accurate, corner and beam-like) exact in a fraction of a second.
 LOW_BAND_UNKNOWNS = 300
 # Most modes any band may hold (arrays of a few hundred MB per listener beyond).
 _MAX_MODES = 2_000_000

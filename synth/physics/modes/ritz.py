@@ -26,10 +26,8 @@ from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios, single_t
 #: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
 TOLERANCE = 1e-4
 
-# Basis-size rule g(kappa) = kappa + C1 kappa^(1/3) + C0 (degrees), and the extra
-# degrees of the check basis. Chosen from the measured Legendre convergence of
-# free and clamped plates (tests/test_plate.py checks the result against a much
-# larger basis).
+# Basis-size rule g(kappa) = kappa + C1 kappa^(1/3) + C0 (degrees) and the check basis' extra
+# degrees, from the Legendre convergence of free and clamped plates (tests/test_plate.py).
 _C0 = 2.0
 _C1 = 3.0
 _D0 = 2.0
@@ -39,11 +37,9 @@ _D1 = 1.0
 _MAX_UNKNOWNS = 12000
 # Parity classes (x, y): 0 = even, 1 = odd.
 _CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
-#: Symmetry classes with more unknowns than this (in the first basis tried) are solved on
-#: one BLAS thread (see _solve_classes). Every size is: BLAS's own threads split its sums
-#: by their number, so the last bits of the modes would depend on the process's thread
-#: count (a bank's workers run one thread, a command as many as the cores) and a result's
-#: bytes on where it was computed. ``math.inf``: never on one thread.
+#: Symmetry classes with more unknowns than this (in the first basis) are solved on one BLAS
+#: thread. Every size is: BLAS's threads split its sums, so the modes' last bits would depend
+#: on the process's thread count. ``math.inf``: never on one thread.
 ONE_THREAD_UNKNOWNS = 0
 
 
@@ -89,13 +85,9 @@ class RitzSolution:
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(arr.nbytes for arr in arrays)
-        self.key = json.dumps(
-            {
-                "solution": solution_key(self.boundary, self.nu, self.aspect),
-                "omega_max": float(self.omega_max).hex(),
-            },
-            sort_keys=True,
-        )
+        solution = solution_key(self.boundary, self.nu, self.aspect)
+        omega_max = float(self.omega_max).hex()
+        self.key = json.dumps({"solution": solution, "omega_max": omega_max}, sort_keys=True)
 
     def _dense_coefficients(self, c, m, axis):
         """Class ``c``'s first ``m`` modes' coefficients as a dense ``(n_s, n_t * m)`` matrix, ``s``
@@ -351,20 +343,11 @@ def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> Rit
 def solution_key(boundary: str, nu: float, aspect: float) -> str:
     """Everything that determines a stored solution, as canonical JSON."""
     return json.dumps(
-        {
-            "version": VERSION,
-            "boundary": boundary,
-            "nu": float(nu).hex(),
-            "aspect": float(aspect).hex(),
-            "c0": _C0,
-            "c1": _C1,
-            "d0": _D0,
-            "d1": _D1,
-            "shift": SHIFT,
-            "tolerance": TOLERANCE,
-        },
+        {"version": VERSION, "boundary": boundary, "nu": float(nu).hex(),
+         "aspect": float(aspect).hex(), "c0": _C0, "c1": _C1, "d0": _D0, "d1": _D1,
+         "shift": SHIFT, "tolerance": TOLERANCE},
         sort_keys=True,
-    )
+    )  # fmt: skip
 
 
 class TooLarge(Exception):
