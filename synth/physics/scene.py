@@ -465,7 +465,12 @@ class Scene:
     def __post_init__(self):
         check_type("ball", self.ball, Ball)
         check_type("plate", self.plate, Plate)
-        h = _closed("drop.height", self.drop_height, MIN_DROP_HEIGHT, MAX_DROP_HEIGHT, "metres")
+        h = checks.positive_at_most("drop.height", self.drop_height, MAX_DROP_HEIGHT, "metres")
+        if h < MIN_DROP_HEIGHT:
+            raise ParameterError(
+                f"drop.height={self.drop_height!r} must be >= "
+                f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)"
+            )
         pos = self.plate.centre if self.position is None else self.position
         _set(
             self,
