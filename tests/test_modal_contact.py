@@ -198,7 +198,7 @@ def test_scene_opts_into_the_modal_plate():
 
 def test_bad_input_names_the_field():
     with pytest.raises(ParameterError, match="steps_per_contact"):
-        mc.ModalContact.for_pair(BALL, SMALL, steps_per_contact=4)
+        replace(mc.ModalContact.for_pair(BALL, SMALL), steps_per_contact=4)
     with pytest.raises(ParameterError, match="dissipation"):
         mc.ModalContact.for_pair(BALL, SMALL, law="hunt-crossley", dissipation=-0.1)
     with pytest.raises(ParameterError, match="position"):

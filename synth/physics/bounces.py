@@ -1,15 +1,11 @@
 """The bounce sequence: impacts strung together by free flight (docs/physics.md, "Bounces").
 
 The ball first touches at ``t1 = sqrt(2 h0 / g)`` with ``v1 = sqrt(2 g h0)``; after impact n,
-``t_(n+1) = t_n + tau_n + 2 v_out,n / g`` and ``v_(n+1) = v_out,n`` (air drag negligible,
-thesis appendix A.2). Each impact is solved at its own speed; in the measured contact models
-one faster than the pair's yield speed flows plastically (docs/physics.md, "Yield of the
-contact"). The series ends by the first rule met (:attr:`BounceSequence.stop_reason`):
-``"settled"`` (no separation, or the ringing plate met the ball in flight), ``"flight-
-shorter-than-contact"`` (the ball no longer leaves the plate audibly), ``"floor"`` (the
-next impact's kinetic energy, which a tick's energy follows, is ``floor_db`` below the
-first's), ``"max-duration"`` or ``"max-impacts"`` (a guard for lossless scenes).
-"""
+``t_(n+1) = t_n + tau_n + 2 v_out,n / g``, ``v_(n+1) = v_out,n`` (air drag negligible, thesis
+appendix A.2), each impact solved at its own speed. The series ends by the first rule met
+(:attr:`BounceSequence.stop_reason`): "settled" (no separation, or the ringing plate met the
+ball in flight), "flight-shorter-than-contact", "floor" (the next impact's kinetic energy
+``floor_db`` below the first's), "max-duration" or "max-impacts"."""
 
 from __future__ import annotations
 
@@ -30,12 +26,10 @@ STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
 
 @dataclass(frozen=True)
 class Impact:
-    """One impact of the sequence: ``index`` (1 for the first), ``time`` of first touch (s from
-    the release), impact ``speed`` (m/s), the contact solution ``result``; ``restitution`` that
-    set the next flight (``result.restitution`` unless a rebound rule of
-    :func:`simulate_bounces` replaced it); ``plate_state`` the modal plate's ringing under the
-    ball at first touch (:class:`synth.physics.modal_contact.PlateRinging`; None on the
-    impedance plate, at rest at every touch)."""
+    """One impact: ``index`` (1 for the first), ``time`` of first touch (s from release), impact
+    ``speed`` (m/s), the contact solution ``result``; ``restitution`` that set the next flight
+    (``result.restitution`` unless a rebound rule replaced it); ``plate_state`` the modal plate's
+    ringing under the ball at first touch (None on the impedance plate, at rest)."""
 
     index: int
     time: float
@@ -57,8 +51,7 @@ class Impact:
 @dataclass(frozen=True)
 class BounceSequence:
     """The ``impacts`` of one drop in time order (the sequence behaves as them), the
-    ``stop_reason`` (one of :data:`STOP_REASONS`, module docstring), the ``drop_height`` (m, the
-    ball's lowest point at release) and ``gravity`` (m/s^2)."""
+    ``stop_reason`` (:data:`STOP_REASONS`), the ``drop_height`` (m) and ``gravity`` (m/s^2)."""
 
     impacts: tuple[Impact, ...]
     stop_reason: str
@@ -83,8 +76,8 @@ class BounceSequence:
         return last.time + last.result.separation_time
 
     def table(self) -> list[dict]:
-        """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
-        peak_force (N), max_penetration (m), inelasticity (lambda), settled."""
+        """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s), peak_force
+        (N), max_penetration (m), inelasticity, settled."""
         return [
             dict(n=i.index, time=i.time, speed=i.speed, restitution=i.restitution,
                  contact_time=i.result.contact_time, peak_force=i.result.peak_force,
@@ -101,15 +94,13 @@ ReboundRule = Callable[[ImpactResult, float], float]
 
 @dataclass(frozen=True)
 class BounceOptions:
-    """How :func:`simulate_bounces` solves each impact and when the series ends, checked when made:
-    ``rtol``, each impact's relative accuracy on the impedance plate (the modal plate's is set by
-    its band and steps); ``n_points`` >= 64 samples of each force pulse; ``max_frequency``, the
-    "modal" plate's band, Hz (default :data:`synth.physics.modal_contact.BAND_FACTOR`);
-    ``floor_db`` < 0, the end when an impact's kinetic energy is that many dB below the first's;
-    ``max_duration`` > 0, the latest start of an impact, s; ``max_impacts`` >= 1; ``rebound``, a
-    :data:`ReboundRule` replacing each flight's physical restitution (take-off at ``e' v``) while
-    every impact is still solved at its own speed (the stimuli of
-    :mod:`synth.stimuli.sequences`)."""
+    """How :func:`simulate_bounces` solves each impact and when the series ends: ``rtol``, each
+    impedance-plate impact's relative accuracy; ``n_points`` >= 64 samples of each pulse;
+    ``max_frequency``, the modal plate's band, Hz (default
+    :data:`synth.physics.modal_contact.BAND_FACTOR`); ``floor_db`` < 0; ``max_duration`` > 0, the
+    latest start of an impact, s; ``max_impacts`` >= 1; ``rebound``, a :data:`ReboundRule`
+    replacing each flight's restitution (take-off at ``e' v``) while every impact is solved at its
+    own speed (:mod:`synth.stimuli.sequences`)."""
 
     rtol: float = 1e-6
     n_points: int = 128
@@ -140,8 +131,7 @@ class BounceOptions:
 
     @classmethod
     def split(cls, options: dict) -> tuple[dict, dict]:
-        """``options`` (by name) parted into the fields of a ``BounceOptions`` and the rest
-        (the contact law's parameters)."""
+        """``options`` parted into a ``BounceOptions``' fields and the rest (the contact law's)."""
         names = {f.name for f in dataclasses.fields(cls)}
         mine = {k: v for k, v in options.items() if k in names}
         return mine, {k: v for k, v in options.items() if k not in names}
@@ -151,16 +141,9 @@ class BounceOptions:
         """The lowest ratio of an impact's kinetic energy to the first's (``floor_db``)."""
         return 10.0 ** (self.floor_db / 10.0)
 
-    def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float) -> str | None:
-        """Why the series ends after an impact sending the ball off at ``v_out`` (m/s; the
-        first at ``v1``), or None: the scheduler's rules
-        (:func:`~synth.physics.contact_kernels.bounce_end`), a flight shorter than the
-        contact or an impact below the floor."""
-        end, _ = bounce_end(
-            0.0, float(v1), float(gravity), True, False, 1.0, float(v_out),
-            result.separation_time, self.energy_floor, math.inf,
-        )  # fmt: skip
-        return None if end == NO_END else BOUNCE_ENDS[end]
+
+#: The plate models of the contact (see :func:`simulate_bounces`).
+PLATE_MODELS = ("impedance", "modal")
 
 
 def simulate_bounces(
@@ -175,16 +158,13 @@ def simulate_bounces(
     options: BounceOptions | None = None,
     **overrides,
 ) -> BounceSequence:
-    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point at release) and compute
-    every impact until the sequence ends.
-
-    ``position``: the impact point, m from a corner (None: far from the edges); ``gravity``:
-    m/s^2; ``contact_law``: one of :data:`synth.physics.scene.CONTACT_LAWS` (None: "shell" for a
-    hollow ball, else "hertz"), its parameters in ``overrides``
-    (:func:`synth.physics.contact_law.contact_parameters`); ``plate_model``: "impedance" (the
-    infinite plate's, blended towards measured values near free edges) or "modal" (the finite
-    plate's modes, :mod:`synth.physics.modal_contact`, ringing from impact to impact);
-    ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give by name."""
+    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point) and compute every
+    impact until the sequence ends. ``position``: the impact point, m from a corner (None: far
+    from the edges); ``gravity``: m/s^2; ``contact_law``: :data:`synth.physics.scene.CONTACT_LAWS`
+    (None: "shell" for a hollow ball, else "hertz"), its parameters in ``overrides``;
+    ``plate_model``: "impedance" (the infinite plate's, blended towards measured values near free
+    edges) or "modal" (the finite plate's ringing modes, :mod:`synth.physics.modal_contact`);
+    ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give."""
     check_type("ball", ball, Ball)
     check_type("plate", plate, Plate)
     h0 = checks.positive("drop_height", drop_height, "metres")
@@ -193,62 +173,69 @@ def simulate_bounces(
     o = dataclasses.replace(options or BounceOptions(), **given)
     pos = None if position is None else plate.check_position(position, "position")
     checks.choice("plate_model", plate_model, PLATE_MODELS)
+    t, v = math.sqrt(2.0 * h0 / g), math.sqrt(2.0 * g * h0)
     if plate_model == "modal":
-        return _modal_bounces(ball, plate, h0, pos, g, contact_law, o, contact_options)
-    if o.max_frequency is not None:
-        raise ParameterError(
-            f"max_frequency={o.max_frequency!r} applies to plate_model='modal' only (Hz)"
-        )
-    solver = ContactSolver.for_pair(
-        ball, plate, gravity=g, law=contact_law, rtol=o.rtol, n_points=o.n_points,
-        **contact_options,
-    )  # fmt: skip
-    t = math.sqrt(2.0 * h0 / g)
-    v = math.sqrt(2.0 * g * h0)
-    series = _Series(solver, pos, v, g, o)
-    if o.rebound is None:
-        # the elastic rest in one compiled call, as far as it serves (ContactSolver.solve_drop)
-        t, v = series.compiled(t, v)
+        series = _ModalSeries(ball, plate, pos, v, g, o, contact_law, contact_options)
+    else:
+        if o.max_frequency is not None:
+            raise ParameterError(
+                f"max_frequency={o.max_frequency!r} applies to plate_model='modal' only (Hz)"
+            )
+        solver = ContactSolver.for_pair(
+            ball, plate, gravity=g, law=contact_law, rtol=o.rtol, n_points=o.n_points,
+            **contact_options,
+        )  # fmt: skip
+        series = _Series(solver, pos, v, g, o)
+        if o.rebound is None:
+            # the elastic rest in one compiled call, as far as it serves (ContactSolver.solve_drop)
+            t, v = series.compiled(t, v)
     if series.reason is None:
-        t, v = series.run(t, v, o.rebound)
+        series.run(t, v)
     return BounceSequence(tuple(series.impacts), series.reason or "max-impacts", h0, g)
 
 
 class _Series:
-    """The impacts of one drop on the impedance plate as :func:`simulate_bounces` strings
-    them together: ``impacts`` so far, and ``reason`` (None while the series goes on)."""
+    """The impacts of one drop (``impacts``; ``reason`` None while the series goes on):
+    :meth:`run` is the one bounce loop, :meth:`impact` and :meth:`flight` the plate's step."""
 
-    def __init__(self, solver: ContactSolver, position, v1: float, gravity: float, o):
+    def __init__(self, solver, position, v1: float, gravity: float, o: BounceOptions):
         self.solver, self.position, self.v1, self.gravity, self.o = solver, position, v1, gravity, o
         self.impacts: list[Impact] = []
         self.reason: str | None = None
 
-    def run(self, t: float, v: float, rule: ReboundRule | None):
-        """Solve impacts one by one from the one at ``v`` (m/s) ``t`` s after release, flights
-        set by ``rule`` (None: physical), while the ball lands (``v > 0``, m/s); returns
-        the next ``(t, v)``."""
-        o = self.o
+    def run(self, t: float, v: float) -> None:
+        """Impacts one by one from the one at ``v`` (m/s) ``t`` s after release while the ball
+        lands, flights set by the ``rebound`` rule (None: physical)."""
+        o, rule = self.o, self.o.rebound
         while v > 0.0:
             if len(self.impacts) >= o.max_impacts:
                 self.reason = "max-impacts"
-                break
-            res = self.solver.solve(v, position=self.position)
+                return
+            res, plate_state = self.impact(v)
             e = float(res.restitution if rule is None else rule(res, v))
-            self.impacts.append(Impact(len(self.impacts) + 1, t, v, res, _flight(res, e)))
-            v_out = _take_off(res, e, v, rule)
-            end, t_next = bounce_end(
-                float(t), self.v1, float(self.gravity), res.success, res.settled, e,
-                float(v_out), res.separation_time, o.energy_floor, float(o.max_duration),
-            )  # fmt: skip
-            if end != NO_END:
-                self.reason = BOUNCE_ENDS[end]
-                break
-            t, v = t_next, v_out
-        return t, v
+            flight_e = max(e, 0.0) if not res.settled else 0.0
+            self.impacts.append(Impact(len(self.impacts) + 1, t, v, res, flight_e, plate_state))
+            v_out = res.rebound_speed if rule is None else e * v
+            self.reason, t, v = self.flight(t, res, e, float(v_out))
+
+    def impact(self, v: float):
+        """The impact at ``v`` (m/s) and the plate's state at first touch (None: at rest)."""
+        return self.solver.solve(v, position=self.position), None
+
+    def flight(self, t: float, res: ImpactResult, e: float, v_out: float):
+        """``(reason, t, v)`` after the impact ``res`` started at ``t`` (s), restitution ``e``,
+        take-off ``v_out`` (m/s): why the series ends (None: on), the next impact's start (s) and
+        speed (m/s), by :func:`~synth.physics.contact_kernels.bounce_end`."""
+        o = self.o
+        end, t_next = bounce_end(
+            float(t), self.v1, float(self.gravity), res.success, res.settled, e, v_out,
+            res.separation_time, o.energy_floor, float(o.max_duration),
+        )  # fmt: skip
+        return (None, t_next, v_out) if end == NO_END else (BOUNCE_ENDS[end], t, 0.0)
 
     def compiled(self, t: float, v: float):
-        """The physical impacts from the one at ``v`` (m/s) ``t`` s after release in one
-        compiled call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` it hands over."""
+        """The physical impacts from the one at ``v`` (m/s) ``t`` s after release in one compiled
+        call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` it hands over."""
         o = self.o
         if len(self.impacts) >= o.max_impacts:
             self.reason = "max-impacts"
@@ -258,91 +245,68 @@ class _Series:
             max_duration=o.max_duration, max_impacts=o.max_impacts - len(self.impacts),
         )  # fmt: skip
         for time_, speed, res in zip(drop.times, drop.speeds, drop.results):
-            self.impacts.append(
-                Impact(len(self.impacts) + 1, time_, speed, res, _flight(res, res.restitution))
-            )
+            flight_e = max(res.restitution, 0.0) if not res.settled else 0.0
+            self.impacts.append(Impact(len(self.impacts) + 1, time_, speed, res, flight_e))
         if drop.end != "handed-over":
             self.reason = drop.end
         return drop.next_time, drop.next_speed
 
 
-def _take_off(result: ImpactResult, restitution: float, speed: float, rule) -> float:
-    """The take-off speed (m/s) after an impact at ``speed`` (m/s): the physical rebound, or
-    ``e' v`` with a :data:`ReboundRule` (``restitution`` its ``e'``)."""
-    return result.rebound_speed if rule is None else restitution * speed
+class _ModalSeries(_Series):
+    """:class:`_Series` with the finite plate's modes in every contact: the plate rings between
+    impacts and its ringing enters the next (a free plate's rigid-body motion is left to its
+    supports); with a ``rebound`` rule the plate rings on from its physical state."""
 
+    def __init__(self, ball, plate, pos, v1, g, o, law, contact_options):
+        from synth.physics import modal_contact
 
-def _flight(res: ImpactResult, restitution: float) -> float:
-    """The restitution that sets the flight after ``res``, dimensionless: 0 if it settled."""
-    return max(restitution, 0.0) if not res.settled else 0.0
+        contact = modal_contact.ModalContact.for_pair(
+            ball, plate, pos, gravity=g, law=law, max_frequency=o.max_frequency, speed=v1,
+            **contact_options,
+        )  # fmt: skip
+        super().__init__(contact, pos, v1, g, o)
+        self.state = contact.at_rest()
+
+    def impact(self, v: float):
+        return self.solver.solve(v, self.state, n_points=self.o.n_points), self.state
+
+    def flight(self, t: float, res, e: float, v_out: float):
+        """As :meth:`_Series.flight`, landing on the ringing plate
+        (:func:`~synth.physics.modal_contact.next_touch`): "settled" if it meets the ball rising."""
+        from synth.physics.modal_contact import next_touch
+
+        o = self.o
+        e_end = 1.0 if o.rebound is None else e  # a physical flight ends by the rules below
+        end, _ = bounce_end(
+            0.0, self.v1, float(self.gravity), True, res.settled, e_end, v_out,
+            res.separation_time, o.energy_floor, math.inf,
+        )  # fmt: skip
+        if end != NO_END:
+            return BOUNCE_ENDS[end], t, 0.0
+        flight, self.state = next_touch(self.solver, res.ringing, res.ringing.displacement, v_out)
+        v_next = self.gravity * flight - v_out
+        if not v_next > 0.0:
+            return "settled", t, 0.0
+        t_next = t + res.separation_time + flight
+        if t_next > o.max_duration:
+            return "max-duration", t, 0.0
+        return None, t_next, v_next
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:
-    """The restitution as the thesis measures it from bounce times (section 3.1), dimensionless:
-    ``e_n = t_n / t_(n-1)``, ``t_n`` from the onset of impact n to that of n + 1, for impacts 2
-    to N - 1. The contact times in ``t_n`` raise it above the physical restitution by about
-    ``(tau_n / e - tau_(n-1)) / t_(n-1)`` (docs/analysis.md)."""
+    """The restitution as the thesis measures it from bounce times (section 3.1): ``e_n = t_n /
+    t_(n-1)``, ``t_n`` from the onset of impact n to that of n + 1, impacts 2 to N - 1; the
+    contact times raise it above the physical one by about ``(tau_n / e - tau_(n-1)) /
+    t_(n-1)`` (docs/analysis.md)."""
     if not isinstance(seq, BounceSequence):
         raise ParameterError(f"seq={seq!r} must be a BounceSequence")
     t = [i.time for i in seq]
     return [(t[k + 1] - t[k]) / (t[k] - t[k - 1]) for k in range(1, len(t) - 1)]
 
 
-#: The plate models of the contact (see :func:`simulate_bounces`).
-PLATE_MODELS = ("impedance", "modal")
-
-
-def _modal_bounces(
-    ball, plate, h0, pos, g, law, o: BounceOptions, contact_options: dict
-) -> BounceSequence:
-    """:func:`simulate_bounces` with the finite plate's modes in every contact: the plate rings
-    between impacts, and the ringing at each landing enters that impact (a free plate's
-    rigid-body motion is left to its supports). A ``rebound`` rule sets the take-off ``e' v``;
-    the plate rings on from its physical state."""
-    from synth.physics import modal_contact
-
-    t = math.sqrt(2.0 * h0 / g)
-    v = math.sqrt(2.0 * g * h0)
-    v1 = v
-    contact = modal_contact.ModalContact.for_pair(
-        ball, plate, pos, gravity=g, law=law, max_frequency=o.max_frequency, speed=v,
-        **contact_options,
-    )  # fmt: skip
-    state = contact.at_rest()
-    impacts = []
-    reason = None
-    while len(impacts) < o.max_impacts:
-        res = contact.solve(v, state, n_points=o.n_points)
-        rule = o.rebound
-        e = res.restitution if rule is None else rule(res, v)
-        ruled = None if rule is None else _flight(res, e)
-        impacts.append(Impact(len(impacts) + 1, t, v, res, ruled, plate_state=state))
-        if res.settled or ruled == 0.0:
-            reason = "settled"
-            break
-        v_out = _take_off(res, e, v, rule)
-        reason = o.ended(res, v_out, v1, g)
-        if reason is not None:
-            break
-        flight, state = modal_contact.next_touch(
-            contact, res.ringing, res.ringing.displacement, v_out
-        )
-        v_next = g * flight - v_out
-        if not v_next > 0.0:
-            # the ringing plate meets the ball before the top of its flight: it rests on it
-            reason = "settled"
-            break
-        t_next = t + res.separation_time + flight
-        if t_next > o.max_duration:
-            reason = "max-duration"
-            break
-        t, v = t_next, v_next
-    return BounceSequence(tuple(impacts), reason or "max-impacts", h0, g)
-
-
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (``contact.plate =
-    "auto"`` chosen by :func:`synth.physics.plate_choice.scene_plate`); a scene with a horizontal
+    "auto"`` by :func:`synth.physics.plate_choice.scene_plate`); a scene with a horizontal
     velocity gives its bounces until it rolls (:func:`synth.physics.path.path_bounces`, whose
     only option is ``max_duration``)."""
     check_type("scene", scene, Scene)

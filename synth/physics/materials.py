@@ -1,15 +1,12 @@
 """Materials: elastic constants, density and internal damping (docs/physics.md, "Materials").
 
-The built-in :data:`TABLE` is read from ``materials.toml`` beside this module, where every
-row cites its source: the thesis' Table 3.1 (the MDF boards, steel and glass balls), and the
-handbooks' tables (Cremer, Heckl & Petersson 2005, Table 4.3; Bies, Hansen & Howard 2017,
-Table C.1, whose lower loss factor, the material's own, is used; Hopkins 2007, Table A2,
-which prints the plate speed ``c_L`` for ``E``; Mechel 2008; Vigran 2008; Norton & Karczub
-2003; Ashby 2011; Leet & Ewing 1932 and Birch & Bancroft 1938 for granite). Loss factors are
-bending waves' at audio frequencies, the least certain column (Cremer et al. section 4.5.1):
-where the books disagree the row's ``source`` names the others. Woods give the modulus along
-the grain, which overstates the stiffness of a board bent across it.
-"""
+:data:`TABLE` is read from ``materials.toml`` beside this module, every row citing its source:
+the thesis' Table 3.1 (MDF boards, steel and glass balls) and handbook tables (Cremer, Heckl
+& Petersson 2005, Table 4.3; Bies, Hansen & Howard 2017, Table C.1, its lower loss factor;
+Hopkins 2007, Table A2, plate speeds ``c_L``; Mechel 2008; Vigran 2008; Norton & Karczub 2003;
+Ashby 2011; Leet & Ewing 1932 and Birch & Bancroft 1938 for granite). Loss factors are bending
+waves' at audio frequencies, the least certain column (Cremer et al. section 4.5.1; a row's
+``source`` names the books that disagree). Woods give the modulus along the grain."""
 
 from __future__ import annotations
 
@@ -45,8 +42,8 @@ def _closed(name: str, value, bounds: tuple[float, float], unit: str, what: str)
 
 @dataclass(frozen=True)
 class Rayleigh:
-    """Rayleigh damping, decay rate ``sigma = alpha/2 + beta omega^2 / 2``: ``alpha`` >= 0
-    (1/s), ``beta`` >= 0 (s)."""
+    """Rayleigh damping, ``sigma = alpha/2 + beta omega^2 / 2``: ``alpha`` >= 0 (1/s), ``beta``
+    >= 0 (s)."""
 
     alpha: float
     beta: float
@@ -56,7 +53,7 @@ class Rayleigh:
         object.__setattr__(self, "beta", checks.nonnegative("damping.beta", self.beta, "s"))
 
     def decay_rate(self, omega) -> np.ndarray:
-        """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
+        """Amplitude decay rate (1/s) at ``omega`` (rad/s)."""
         omega = np.asarray(omega, dtype=float)
         return 0.5 * self.alpha + 0.5 * self.beta * omega * omega
 
@@ -72,7 +69,7 @@ class LossFactor:
         object.__setattr__(self, "eta", eta)
 
     def decay_rate(self, omega) -> np.ndarray:
-        """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
+        """Amplitude decay rate (1/s) at ``omega`` (rad/s)."""
         return 0.5 * self.eta * np.asarray(omega, dtype=float)
 
 
@@ -81,14 +78,12 @@ Damping = Rayleigh | LossFactor
 
 @dataclass(frozen=True)
 class Material:
-    """An elastic material, isotropic or transversely isotropic (a board softer through its
-    thickness than in its plane): ``name``; ``density`` in :data:`DENSITY_RANGE`, kg/m^3;
-    ``young`` in :data:`YOUNG_RANGE`, Pa; ``poisson`` in (-1, 0.5); ``damping`` of the bending
-    modes (a plate needs one, a ball may have None); ``source``, the citation;
-    ``transverse_shear`` ``G_t`` > 0 Pa, read by the thick (Mindlin) plate only (docs/physics.md,
-    "Thick plates (Mindlin)"; None: isotropic ``E / (2 (1 + nu))``); ``yield_stress`` ``Y`` > 0
-    Pa of a ductile material (a plastic contact holds the hardness ``2.8 Y``, docs/physics.md,
-    "Yield of the contact"; None: brittle, or no published value)."""
+    """An elastic material, isotropic or transversely isotropic: ``name``; ``density`` in
+    :data:`DENSITY_RANGE`, kg/m^3; ``young`` in :data:`YOUNG_RANGE`, Pa; ``poisson`` in (-1,
+    0.5); ``damping`` of the bending modes (a plate needs one); ``source``, the citation;
+    ``transverse_shear`` ``G_t`` > 0 Pa, read by the Mindlin plate only (None: isotropic);
+    ``yield_stress`` ``Y`` > 0 Pa of a ductile material (a plastic contact holds ``2.8 Y``,
+    docs/physics.md, "Yield of the contact"; None: brittle or unpublished)."""
 
     name: str
     density: float
@@ -135,13 +130,13 @@ class Material:
 
     @property
     def transverse_shear_modulus(self) -> float:
-        """``G_t``, Pa: :attr:`transverse_shear`, else the isotropic :attr:`shear_modulus`."""
+        """``G_t``, Pa: :attr:`transverse_shear`, else :attr:`shear_modulus`."""
         return self.shear_modulus if self.transverse_shear is None else self.transverse_shear
 
 
 def _row(name: str, row: dict) -> Material:
-    """A material of ``materials.toml``: ``E = c_L^2 rho (1 - nu^2)`` where the row gives the
-    quasi-longitudinal plate speed ``c_L`` (m/s, Hopkins 2007, Table A2) instead of ``E``."""
+    """A row of ``materials.toml``: ``E = c_L^2 rho (1 - nu^2)`` where it gives the plate speed
+    ``c_L`` (m/s, Hopkins 2007, Table A2) instead of ``E``."""
     rho, nu = row["density"], row["poisson"]
     young = row["plate_speed"] ** 2 * rho * (1.0 - nu**2) if "plate_speed" in row else row["young"]
     damping = Rayleigh(*row["rayleigh"]) if "rayleigh" in row else LossFactor(row["eta"])
@@ -164,8 +159,8 @@ def names() -> list[str]:
 
 
 def get(name: str) -> Material:
-    """The built-in material called ``name`` (case-insensitive, or an alias); an unknown
-    name raises ``ParameterError`` suggesting the nearest names."""
+    """The built-in material ``name`` (case-insensitive, or an alias); an unknown name raises
+    ``ParameterError`` suggesting the nearest."""
     if not isinstance(name, str):
         raise ParameterError(f"material={name!r} must be a material name (str) or a Material")
     key = name.strip().lower()
@@ -198,8 +193,7 @@ def damping_text(d) -> str:
 
 
 def table_markdown() -> str:
-    """The built-in table in Markdown, sorted by name: density (kg/m^3), E (GPa), nu,
-    damping (loss factor, or Rayleigh ``alpha`` 1/s and ``beta`` s) and source."""
+    """The built-in table in Markdown: density (kg/m^3), E (GPa), nu, damping, source."""
     lines = [
         "| name | density (kg/m^3) | E (GPa) | nu | damping | source |",
         "|---|---|---|---|---|---|",
@@ -216,14 +210,13 @@ def table_markdown() -> str:
 
 @dataclass(frozen=True)
 class ContactSurface:
-    """A plate material's side of the ball-plate contact, where an isotropic elastic half-space (the
-    thesis' Hertz model) is not what was measured: ``transverse_ratio`` ``E_t / E`` in (0, 1],
-    the modulus resisting the indentation (a fibreboard's through-thickness one) over ``young``,
-    the plate's side being isotropic with ``E_t`` and ``nu``; and one loss, exactly one of
-    ``dissipation`` ``mu`` >= 0 s/m of ``F = K delta^n (1 + mu delta')`` (Hunt & Crossley, J.
-    Appl. Mech. 42 (1975) 440-445: ``1 - e`` grows like ``v``) and ``viscous_time`` ``A`` >= 0 s
-    of ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')`` (Kuwabara & Kono 1987; Brilliantov et
-    al. 1996: ``1 - e`` like ``v^(1/5)``); ``source``, what it was fitted on."""
+    """A plate material's side of the contact where an isotropic half-space (the thesis' Hertz
+    model) is not what was measured: ``transverse_ratio`` ``E_t / E`` in (0, 1], the modulus
+    resisting the indentation over ``young`` (the plate's side isotropic with ``E_t`` and
+    ``nu``); and exactly one loss: ``dissipation`` ``mu`` >= 0 s/m of ``F = K delta^n (1 + mu
+    delta')`` (Hunt & Crossley, J. Appl. Mech. 42 (1975) 440-445) or ``viscous_time`` ``A`` >= 0
+    s of ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')`` (Kuwabara & Kono 1987;
+    Brilliantov et al. 1996); ``source``, what it was fitted on."""
 
     transverse_ratio: float
     dissipation: float = 0.0
@@ -268,8 +261,8 @@ SURFACES: dict[str, ContactSurface] = dict.fromkeys(("mdf-18", "mdf-12", "mdf-6"
 
 
 def contact_surface(material: Material) -> ContactSurface:
-    """The fitted :class:`ContactSurface` of a table material (whatever its transverse
-    shear, which the contact does not read), or ``ParameterError`` naming those that have one."""
+    """The fitted :class:`ContactSurface` of a table material (whatever its transverse shear),
+    else ``ParameterError`` naming those that have one."""
     surface = SURFACES.get(getattr(material, "name", None))
     if (
         surface is None
@@ -285,7 +278,7 @@ def contact_surface(material: Material) -> ContactSurface:
 
 
 def has_contact_surface(material: Material) -> bool:
-    """True if ``material`` has a fitted :class:`ContactSurface` (:func:`contact_surface`)."""
+    """True if ``material`` has a fitted :class:`ContactSurface`."""
     try:
         contact_surface(material)
     except ParameterError:
@@ -294,10 +287,9 @@ def has_contact_surface(material: Material) -> bool:
 
 
 def with_transverse_shear(material: Material) -> Material:
-    """``material`` with ``G_t = E_t / (2 (1 + nu))``, ``E_t = transverse_ratio E`` (Pa), from
-    its fitted contact surface, for the thick (Mindlin) plate: a plane across the board's
-    thickness taken isotropic with ``E_t`` and ``nu`` (docs/physics.md, "Thick plates
-    (Mindlin)"), so no parameter is added to the fitted two."""
+    """``material`` with ``G_t = E_t / (2 (1 + nu))``, ``E_t = transverse_ratio E`` (Pa) of its
+    fitted surface, for the Mindlin plate (docs/physics.md, "Thick plates (Mindlin)"): no
+    parameter added to the fitted two."""
     surface = contact_surface(material)
     through_thickness = surface.transverse_ratio * material.young
     return replace(material, transverse_shear=through_thickness / (2.0 * (1.0 + material.poisson)))

@@ -1,15 +1,14 @@
-"""Where the finite plate's modes enter the contact: ``contact.plate = "auto"`` (docs/physics.md,
-"Plate impedance" and "Plate modes").
+"""Where the finite plate's modes enter the contact: ``contact.plate = "auto"``
+(docs/physics.md, "Plate impedance" and "Plate modes").
 
-Until a wave reflected by an edge returns, the finite plate moves as the infinite one. A flexural
-wave (group speed ``2 sqrt(omega) (D / (rho h))^(1/4)``, Cremer, Heckl & Petersson, section 3.7)
-from an edge at ``d`` is back within the contact time above ``omega_d``
-(:func:`return_frequency`); the share ``s`` of the first impact's force spectrum above it bounds
-the change of the plate's energy, blended as in :func:`synth.physics.impedance.admittance_at`,
+Until a wave reflected by an edge returns, the finite plate moves as the infinite one. A
+flexural wave (group speed ``2 sqrt(omega) (D / (rho h))^(1/4)``, Cremer, Heckl & Petersson,
+section 3.7) from an edge at ``d`` is back within the contact time above ``omega_d``
+(:func:`return_frequency`); the share ``s`` of the first pulse's energy above it bounds the
+change of the plate's energy, blended as in :func:`synth.physics.impedance.admittance_at`,
 ``Delta(e^2) <= eps [(r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y]`` (``eps`` the plate's
-share of the kinetic energy), and ``Delta e <= Delta(e^2) / (2 e)``: above :data:`TOLERANCE` the
-modes enter the contact.
-"""
+share of the kinetic energy), ``Delta e <= Delta(e^2) / (2 e)``: above :data:`TOLERANCE` the
+modes enter the contact."""
 
 from __future__ import annotations
 
@@ -33,10 +32,9 @@ TRANSFORM_LENGTH = 1 << 15
 
 @dataclass(frozen=True)
 class PlateChoice:
-    """The plate in the contact for one scene: ``plate`` ("impedance" or "modal"), the ``bound`` on
-    the change of e by the edges' reflections within the first contact, the ``distances`` to the
-    nearest edge along x and y (m) and the lowest ``frequencies`` whose reflection from each is
-    back within the contact (Hz)."""
+    """The plate in the contact of one scene: ``plate`` ("impedance" or "modal"), the ``bound`` on
+    the change of e, the ``distances`` to the nearest edges along x and y (m) and the lowest
+    ``frequencies`` whose reflections are back within the contact (Hz)."""
 
     plate: str
     bound: float
@@ -44,16 +42,9 @@ class PlateChoice:
     frequencies: tuple[float, float]
 
 
-def energy_share_above(result, omega: float) -> float:
-    """The share (in [0, 1]) of an :class:`~synth.physics.contact.ImpactResult`'s pulse energy ``Int
-    |F(omega)|^2`` above ``omega`` (rad/s): :data:`PULSE_SAMPLES` samples over the contact, a
-    zero-padded FFT."""
-    return energy_shares_above(result, (omega,))[0]
-
-
 def energy_shares_above(result, omegas) -> list[float]:
-    """:func:`energy_share_above` at each of ``omegas`` (rad/s), from one spectrum of the
-    pulse."""
+    """The shares of an impact's pulse energy ``Int |F(omega)|^2`` above each of ``omegas``
+    (rad/s), from one zero-padded FFT of :data:`PULSE_SAMPLES` samples over the contact."""
     tau = result.separation_time
     t = np.linspace(0.0, tau, PULSE_SAMPLES)
     f = np.asarray(result.force_at(t), dtype=float)
@@ -68,16 +59,16 @@ def energy_shares_above(result, omegas) -> list[float]:
 
 def return_frequency(plate, distance: float, contact_time: float) -> float:
     """The lowest angular frequency (rad/s) whose flexural wave, reflected by an edge at
-    ``distance`` (m), is back at the impact point within ``contact_time`` (s):
-    ``(d / (kappa tau))^2``, ``kappa = (D / (rho h))^(1/4)``."""
+    ``distance`` (m), is back within ``contact_time`` (s): ``(d / (kappa tau))^2``, ``kappa = (D /
+    (rho h))^(1/4)``."""
     kappa = (plate.flexural_rigidity / plate.surface_density) ** 0.25
     return (distance / (kappa * contact_time)) ** 2
 
 
 def choose_plate(result, plate, position, ball_mass: float, speed: float) -> PlateChoice:
-    """The :class:`PlateChoice` for the impedance plate's first impact ``result`` at ``speed`` (m/s)
-    of a ball of ``ball_mass`` (kg) at ``position`` (m) on ``plate``; for a ball that settles (no
-    e to change) the bound is on the plate's share of the energy itself."""
+    """The :class:`PlateChoice` for the impedance plate's first impact ``result`` at ``speed``
+    (m/s) of a ball of ``ball_mass`` (kg) at ``position`` (m); for a ball that settles the bound
+    is on the plate's share of the energy."""
     x, y = plate.check_position(position, "position")
     dx = min(x, plate.length - x)
     dy = min(y, plate.width - y)
@@ -100,9 +91,8 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
 
 
 def scene_plate(scene) -> PlateChoice:
-    """The plate in the contact of a :class:`~synth.physics.scene.Scene`: its ``contact.plate``
-    where that names one (bound 0 or inf), the impedance plate for the thin-shell law (the modal
-    contact integrates the power laws only), else :func:`choose_plate` on its first impact."""
+    """The plate in a scene's contact: ``contact.plate`` where it names one, the impedance plate
+    for the thin-shell law, else :func:`choose_plate` on the first impact."""
     from synth.physics.scene import Scene, check_type
 
     check_type("scene", scene, Scene)
@@ -122,8 +112,7 @@ def scene_plate(scene) -> PlateChoice:
 
 @functools.lru_cache(maxsize=64)
 def _automatic_choice(scene) -> PlateChoice:
-    """:func:`choose_plate` on the first impact of the (hashable) ``scene`` on the impedance plate,
-    kept for the scene (a bank renders one scene many times)."""
+    """:func:`choose_plate` on the hashable ``scene``'s first impact, kept for the scene."""
     from synth.physics.contact import solve_impact
 
     c = scene.contact

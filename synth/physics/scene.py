@@ -1,9 +1,6 @@
-"""Scene objects: the ball, the plate, the listener and the scene that joins them.
-
-Frozen dataclasses validated on construction. A point on a plate is ``(x, y)`` in metres
-from a corner, ``x`` along its length and ``y`` its width; a microphone's ``z`` is its
-height above the plate, metres.
-"""
+"""Scene objects: the ball, the plate, the listener and the scene that joins them, frozen
+dataclasses validated on construction. A point on a plate is ``(x, y)`` in metres from a
+corner (``x`` along its length); a microphone's ``z`` is its height above the plate, m."""
 
 from __future__ import annotations
 
@@ -17,26 +14,19 @@ from synth.physics.materials import Damping, Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
-# Ranges of the scene's numbers: they bound what the model describes (a ball dropped on a
-# thin plate in a room, thesis ch. 2; docs/physics.md) with a wide margin, and keep every
-# derived figure (impact speed, contact time, mode count, audio length) finite.
-#: Ball radius, m: a grain of fine sand (a smaller particle is outside the continuum Hertz
-#: contact) to 1 m (a bowling ball is 0.109 m).
-MIN_BALL_RADIUS = 1e-6
-MAX_BALL_RADIUS = 1.0
-#: Ball mass, kg: a steel sphere of MIN_BALL_RADIUS weighs 3e-14 kg (a lighter ball's force,
-#: ~ m^(3/5), nears float64's underflow) to 1000 kg (a bowling ball is 7 kg).
-MIN_BALL_MASS = 1e-15
-MAX_BALL_MASS = 1000.0
+# Ranges of the scene's numbers: a ball dropped on a thin plate in a room (thesis ch. 2) with a
+# wide margin, every derived figure (speed, contact time, mode count, audio length) finite.
+#: Ball radius, m: a grain of fine sand (below it the contact is not a continuum's) to 1 m.
+MIN_BALL_RADIUS, MAX_BALL_RADIUS = 1e-6, 1.0
+#: Ball mass, kg: a steel sphere of MIN_BALL_RADIUS (a lighter ball's force nears float64's
+#: underflow) to 1000 kg.
+MIN_BALL_MASS, MAX_BALL_MASS = 1e-15, 1000.0
 #: Largest plate side or thickness, m.
 MAX_PLATE_SIZE = 100.0
-#: Thinnest plate, m: household aluminium foil is 16 um; a thinner sheet is a film, whose
-#: bending stiffness ``E h^3`` (a divisor of the contact, modes and impedance) vanishes.
+#: Thinnest plate, m (aluminium foil is 16 um): a film's bending stiffness ``E h^3`` vanishes.
 MIN_PLATE_THICKNESS = 1e-6
-#: Drop heights, m: 1 um (4.4 mm/s at impact) to 1 km (140 m/s; the contact stays elastic
-#: far below it for every material of the table).
-MIN_DROP_HEIGHT = 1e-6
-MAX_DROP_HEIGHT = 1000.0
+#: Drop heights, m: 1 um (4.4 mm/s at impact) to 1 km (140 m/s, still elastic for the table).
+MIN_DROP_HEIGHT, MAX_DROP_HEIGHT = 1e-6, 1000.0
 #: Farthest microphone coordinate from the plate's corner, m (2.9 s of travel at 343 m/s).
 MAX_LISTENER_DISTANCE = 1000.0
 #: Largest horizontal speed of a ball at release, m/s (a thrown ball).
@@ -52,7 +42,7 @@ def check_type(name: str, value, kind: type) -> None:
 
 
 def _closed(name: str, value, lo: float, hi: float, unit: str) -> float:
-    """``value`` as a float in the closed interval ``[lo, hi]``, else ``ParameterError``."""
+    """``value`` as a float in ``[lo, hi]``, else ``ParameterError``."""
     return checks.in_range(name, value, lo, hi, unit, lo_open=False, hi_open=False)
 
 
@@ -75,8 +65,7 @@ def _check_mass(m: float, origin: str, hint: str = "") -> float:
 @dataclass(frozen=True)
 class Ball:
     """A homogeneous elastic sphere of ``material`` (a :class:`Material` or a table name),
-    ``radius`` in [1e-6, 1] m and ``mass`` in [1e-15, 1000] kg (default ``density 4/3 pi
-    radius^3``)."""
+    ``radius`` in [1e-6, 1] m, ``mass`` in [1e-15, 1000] kg (default ``density 4/3 pi r^3``)."""
 
     material: Material | str
     radius: float
@@ -108,16 +97,16 @@ MAX_GAUGE_PRESSURE = 1e6
 
 @dataclass(frozen=True)
 class HollowBall(Ball):
-    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball), usable
-    wherever a :class:`Ball` is; its contact is the thin-shell law (``contact="shell"``,
-    docs/physics.md, "Hollow balls").
+    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball),
+    usable wherever a :class:`Ball` is; its contact is the thin-shell law (docs/physics.md,
+    "Hollow balls").
 
-    Keyword fields: ``thickness`` ``h`` of the wall in (0, R_s / 2] m; ``pressure`` of the gas
-    above one atmosphere in [0, 1e6] Pa (0: unpressurised); ``cover_thickness`` in [0, radius /
-    2) m of a cover outside the shell (a tennis ball's felt: mass and size, no contact force),
-    the shell's outer radius being ``R_s = radius - cover_thickness``; ``cover_mass`` in [0,
-    1000] kg. The mass is derived: the shell's ``rho 4/3 pi (R_s^3 - (R_s - h)^3)``, the air at
-    ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas), and the cover's."""
+    Keyword fields: wall ``thickness`` ``h`` in (0, R_s / 2] m; gauge ``pressure`` of the gas in
+    [0, 1e6] Pa; ``cover_thickness`` in [0, radius / 2) m outside the shell (a tennis ball's felt:
+    mass and size, no force), the shell's outer radius ``R_s = radius - cover_thickness``;
+    ``cover_mass`` in [0, 1000] kg. The mass is derived: the shell's ``rho 4/3 pi (R_s^3 - (R_s -
+    h)^3)``, the air at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas), the
+    cover's."""
 
     _: KW_ONLY
     thickness: float | None = None
@@ -158,7 +147,7 @@ class HollowBall(Ball):
 
     @property
     def shell_radius(self) -> float:
-        """``R_s = R - cover_thickness``, the shell's outer radius, m."""
+        """``R_s = R - cover_thickness``, m."""
         return self.radius - self.cover_thickness
 
     @property
@@ -174,7 +163,7 @@ class HollowBall(Ball):
 
     @property
     def gas_mass(self) -> float:
-        """Mass of the air inside at the absolute pressure ``ATMOSPHERE + pressure``, kg."""
+        """Mass of the air inside at ``ATMOSPHERE + pressure``, kg."""
         density = (ATMOSPHERE + self.pressure) / (AIR_GAS_CONSTANT * GAS_TEMPERATURE)
         return density * 4.0 / 3.0 * math.pi * self.inner_radius**3
 
@@ -182,9 +171,8 @@ class HollowBall(Ball):
 @dataclass(frozen=True)
 class Plate:
     """A rectangular plate of ``material`` (a :class:`Material` or a table name), ``thickness``
-    ``h`` in [1e-6, 100] m (at most the smaller side), ``length`` ``a`` along x and ``width``
-    ``b`` along y in (0, 100] m, and the ``boundary`` of all four edges, one of
-    :data:`BOUNDARIES`."""
+    in [1e-6, 100] m (at most the smaller side), ``length`` along x and ``width`` along y in (0,
+    100] m, and the ``boundary`` of all four edges (:data:`BOUNDARIES`)."""
 
     material: Material | str
     thickness: float
@@ -194,15 +182,11 @@ class Plate:
 
     def __post_init__(self):
         _set(self, material=resolve(self.material, "plate.material"))
-        for name in ("length", "width"):
-            size = checks.positive_at_most(
-                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, "metres"
-            )
-            _set(self, **{name: size})
-        h = _closed(
-            "plate.thickness", self.thickness, MIN_PLATE_THICKNESS, MAX_PLATE_SIZE, "metres"
-        )
-        _set(self, thickness=h)
+        for k in ("length", "width"):
+            v = checks.positive_at_most(f"plate.{k}", getattr(self, k), MAX_PLATE_SIZE, "metres")
+            _set(self, **{k: v})
+        h, lo = self.thickness, MIN_PLATE_THICKNESS
+        _set(self, thickness=_closed("plate.thickness", h, lo, MAX_PLATE_SIZE, "metres"))
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -211,8 +195,7 @@ class Plate:
             )
 
     def damping_law(self) -> Damping:
-        """The material's damping law, which the plate's modes need (their decay rates,
-        1/s); ``ParameterError`` naming the missing law if it has none."""
+        """The material's damping law (the modes' decay rates need it), else ``ParameterError``."""
         if self.material.damping is None:
             raise ParameterError(
                 f"plate.material.damping=None ({self.material.name!r}): computing the plate's "
@@ -238,7 +221,7 @@ class Plate:
         return self.surface_density * self.length * self.width
 
     def check_position(self, position, name: str = "position") -> tuple[float, float]:
-        """The point ``(x, y)`` (metres from a corner), checked to be on the plate."""
+        """The point ``(x, y)`` (m from a corner), checked to be on the plate."""
         x, y = checks.point(name, position, 2)
         if not (0.0 <= x <= self.length and 0.0 <= y <= self.width):
             raise ParameterError(
@@ -255,8 +238,7 @@ class Plate:
 
 @dataclass(frozen=True)
 class Accelerometer:
-    """A pickup of the plate's normal acceleration (m/s^2) at ``position`` ``(x, y)`` on
-    the plate, metres from a corner."""
+    """A pickup of the plate's normal acceleration (m/s^2) at ``position`` ``(x, y)``, m."""
 
     position: tuple[float, float]
 
@@ -266,9 +248,8 @@ class Accelerometer:
 
 @dataclass(frozen=True)
 class Microphone:
-    """A pressure microphone (Pa) in the air above the (baffled) plate at ``position``
-    ``(x, y, z)``: x, y in [-1000, 1000] metres from a plate corner, z in (0, 1000] metres
-    above the plate."""
+    """A pressure microphone (Pa) above the (baffled) plate at ``position`` ``(x, y, z)``, m: x, y
+    within 1000 of a plate corner, z in (0, 1000]."""
 
     position: tuple[float, float, float]
 
@@ -324,21 +305,17 @@ CONTACT_MODELS = {
 class Contact:
     """The contact model and its accuracy (docs/physics.md, "Hertz contact").
 
-    Fields: ``law``, one of :data:`CONTACT_LAWS`, with its parameters (others refused):
-    ``dissipation`` ``mu`` > 0 s/m ("hunt-crossley"), ``viscous_time`` ``A`` > 0 s
-    ("viscoelastic"), ``exponent`` ``n`` in (1, 4] and ``stiffness`` ``K_n`` > 0 N/m^n
-    ("power-law"), ``layer_depth`` > 0 m ("elastic-foundation", default the plate's thickness).
-    ``rtol`` in [1e-12, 0.1]: each impact's relative accuracy (tighter than
-    :func:`synth.solve_impact`'s, as timing errors add up along a series). ``plate``: "impedance"
-    (the infinite plate's), "modal" (the finite plate's modes,
-    :mod:`synth.physics.modal_contact`) or "auto" (the modes where the edges change the first
-    impact beyond their tolerance, :mod:`synth.physics.plate_choice`). ``surface``: "ideal"
-    (lossless half-spaces, the thesis'), "material" (Hertz only: the published loss factors as a
-    viscoelastic loss), "fitted" (Hertz only: :class:`synth.physics.materials.ContactSurface`) or
-    "auto" ("fitted" where the material has one, else "material"; "ideal" for the other laws).
-    ``model``: a named ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`, default
-    "measured"), those given taking precedence. ``theory``: the modal plate's, "kirchhoff" (thin,
-    default) or "mindlin" (shear and rotary inertia)."""
+    ``law`` (:data:`CONTACT_LAWS`) with its parameters, others refused: ``dissipation`` ``mu`` > 0
+    s/m ("hunt-crossley"), ``viscous_time`` ``A`` > 0 s ("viscoelastic"), ``exponent`` in (1, 4]
+    and ``stiffness`` > 0 N/m^n ("power-law"), ``layer_depth`` > 0 m ("elastic-foundation",
+    default the plate's thickness). ``rtol`` in [1e-12, 0.1]: each impact's relative accuracy.
+    ``plate``: "impedance", "modal" (:mod:`synth.physics.modal_contact`) or "auto"
+    (:mod:`synth.physics.plate_choice`). ``surface``: "ideal" (lossless half-spaces), "material"
+    (Hertz only: the published loss factors), "fitted" (Hertz only:
+    :class:`synth.physics.materials.ContactSurface`) or "auto" ("fitted" where the material has
+    one, else "material"; "ideal" for other laws). ``model``: a named law, plate and surface
+    (:data:`CONTACT_MODELS`, default "measured"), those given taking precedence. ``theory``: the
+    modal plate's, "kirchhoff" (default) or "mindlin"."""
 
     law: str | None = None
     dissipation: float | None = None
@@ -397,7 +374,7 @@ class Contact:
                 )
 
     def _resolve_model(self):
-        """``law``, ``plate`` and ``surface`` not given: the ``model``'s (default "measured")."""
+        """``law``, ``plate`` and ``surface`` not given: the ``model``'s."""
         model = DEFAULT_CONTACT_MODEL if self.model is None else self.model
         checks.choice("contact.model", model, CONTACT_MODELS)
         defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
@@ -406,8 +383,8 @@ class Contact:
                 _set(self, **{key: value})
 
     def options(self) -> dict:
-        """The law's parameters as keyword arguments of
-        :func:`synth.physics.contact_law.contact_parameters`."""
+        """The law's parameters as :func:`synth.physics.contact_law.contact_parameters` takes
+        them."""
         options = {k: getattr(self, k) for k in LAW_OPTIONS if getattr(self, k) is not None}
         if self.surface != "ideal":
             options["surface"] = self.surface
@@ -416,18 +393,17 @@ class Contact:
 
 @dataclass(frozen=True)
 class Rolling:
-    """How a ball dropped with a horizontal velocity rolls (docs/rolling.md, "The ball's path"). No
-    value is built in (the engine has no published rolling-resistance coefficients to cite): a
-    preset states them as its author's choice, its roughness a published measurement's where
+    """How a ball dropped with a horizontal velocity rolls (docs/rolling.md, "The ball's path").
+    No value is built in (no published rolling-resistance coefficient to cite): a preset states
+    them, its roughness a published measurement's where
     :data:`synth.physics.surface.MEASURED_ROUGHNESS` has one.
 
-    Fields: ``resistance`` ``C_rr`` in [0, 1]: besides the roughness' micro-impacts the rolling
-    loses ``C_rr m g`` J per metre (Coulomb's law of rolling friction; Cross, Am. J. Phys. 84,
-    221 (2016)); ``spacing`` in (0, 0.01] m of the profile's samples; ``rms_height`` ``sigma`` >=
-    0 m of the Matern roughness (0: smooth; at most
-    :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's thickness), with its
-    ``correlation_length`` ``xi`` in (0, 100] m and ``hurst`` ``H`` in (0, 1] (both required when
-    ``sigma > 0``); ``seed`` >= 0 of the profile."""
+    ``resistance`` ``C_rr`` in [0, 1]: the rolling loses ``C_rr m g`` J per metre besides the
+    roughness' micro-impacts (Cross, Am. J. Phys. 84, 221 (2016)); ``spacing`` in (0, 0.01] m of
+    the profile's samples; ``rms_height`` ``sigma`` >= 0 m of the Matern roughness (0: smooth; at
+    most :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's thickness) with its
+    ``correlation_length`` in (0, 100] m and ``hurst`` in (0, 1] (required when ``sigma > 0``);
+    ``seed`` >= 0 of the profile."""
 
     resistance: float
     spacing: float
@@ -468,14 +444,12 @@ class Rolling:
 
 @dataclass(frozen=True)
 class Scene:
-    """A ball dropped on a plate, heard by a listener.
-
-    Keyword fields: ``drop_height`` in [1e-6, 1000] m of the ball's lowest point at release;
-    ``position`` on the plate, m from a corner (default the centre); ``listener`` (default a
-    microphone 0.2 m above the impact point); ``gravity`` in (0, 1000] m/s^2; ``contact``
-    (default :class:`Contact`'s); ``velocity`` ``(v_x, v_y)`` at release, m/s (default a straight
-    drop: with one the ball bounces along a path and rolls, :mod:`synth.physics.path`, and needs
-    ``rolling``); ``rolling``, its resistance and the plate's roughness."""
+    """A ball dropped on a plate, heard by a listener. Keyword fields: ``drop_height`` in [1e-6,
+    1000] m of the ball's lowest point; ``position`` on the plate, m (default the centre);
+    ``listener`` (default a microphone 0.2 m above the impact); ``gravity`` in (0, 1000] m/s^2;
+    ``contact`` (default :class:`Contact`'s); ``velocity`` ``(v_x, v_y)`` at release, m/s (the
+    ball then bounces along a path and rolls, :mod:`synth.physics.path`, and needs
+    ``rolling``)."""
 
     ball: Ball
     plate: Plate
@@ -527,8 +501,8 @@ class Scene:
         self._check_path()
 
     def _check_shell(self, hollow: bool):
-        """A hollow ball takes the thin-shell law, and the impedance plate (the modal and the
-        rolling contact take the power laws only); the shell law takes a hollow ball."""
+        """A hollow ball takes the thin-shell law and the impedance plate (the modal and rolling
+        contacts take the power laws only); the shell law takes a hollow ball."""
         law, plate = self.contact.law, self.contact.plate
         if hollow and law != "shell":
             raise ParameterError(
@@ -583,5 +557,5 @@ class Scene:
 
     @property
     def moving(self) -> bool:
-        """True if the ball is released with a horizontal velocity (not zero)."""
+        """True if the ball is released with a horizontal velocity."""
         return self.velocity is not None and self.velocity != (0.0, 0.0)

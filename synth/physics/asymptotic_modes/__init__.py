@@ -1,16 +1,13 @@
-"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md, "Large
-free and clamped plates").
-
-A mode is a product ``X(x) Y(y)`` of factors, each an interior term plus edge terms decaying away
-from the edges, whose edge conditions give one equation in ``s_x`` per ``s_y`` (:mod:`.roots`),
-solved by alternating the two directions at a cost linear in the modes; a Rayleigh-Ritz step
-(:mod:`.ritz`) couples the trials of one symmetry class within ``_PAIR_GAP``, splitting a square's
-degenerate pairs; :mod:`.factors` evaluates the shapes.
+"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md,
+"Large free and clamped plates"): a mode is a product ``X(x) Y(y)`` of factors, each an
+interior term plus edge terms decaying from the edges, whose edge conditions give one
+equation in ``s_x`` per ``s_y`` (:mod:`.roots`), solved alternately at a cost linear in the
+modes; a Rayleigh-Ritz step (:mod:`.ritz`) couples a symmetry class's trials within
+``_PAIR_GAP``, splitting a square's degenerate pairs; :mod:`.factors` evaluates the shapes.
 
 References: V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib. Dig. 8 (1976); K.
-Vijayakumar, J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*, NASA SP-160
-(1969).
-"""
+Vijayakumar, J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*, NASA
+SP-160 (1969)."""
 
 from __future__ import annotations
 
@@ -21,7 +18,8 @@ import numpy as np
 
 from synth.physics.asymptotic_modes.factors import factor_edge_constants, factor_table, gather_modes
 from synth.physics.asymptotic_modes.ritz import near_pairs, rayleigh_ritz
-from synth.physics.asymptotic_modes.roots import length_ratios, solve_pairs, starting_s
+from synth.physics.asymptotic_modes.roots import solve_pairs, starting_s
+from synth.physics.modes.common import ratios
 
 __all__ = ["EdgeEffectSolution", "solve", "solution_key", "mode_count_estimate"]
 
@@ -35,17 +33,16 @@ _VERSION = 3
 
 
 def mode_count_estimate(aspect: float, omega: float) -> float:
-    """Modes below the dimensionless frequency ``omega`` (``omega L^2 sqrt(rho h / D)``,
-    ``L = max(a, b)``): the plate's modal density ``N ~ omega a b / (4 pi)`` (Cremer,
-    Heckl & Petersson, Structure-Borne Sound, 3rd ed., eq. 5.118) in units of ``L``."""
-    rx, ry = length_ratios(aspect)
+    """Modes below the dimensionless ``omega``: the modal density ``N ~ omega a b / (4 pi)``
+    (Cremer, Heckl & Petersson, Structure-Borne Sound, 3rd ed., eq. 5.118) in units of ``L``."""
+    rx, ry = ratios(aspect)
     return omega / (4.0 * math.pi * rx * ry)
 
 
 def _trial_indices(hx: float, hy: float, free: bool, omega_trials: float):
-    """The indices ``(nx, ny)`` of the trials up to ``omega_trials`` on the plate of half sides
-    ``hx``, ``hy`` (units of ``L``) without the free plate's rigid-body motions: ``k_x >= (N_x -
-    1) pi / A`` and ``k_x^2 + k_y^2 <= omega``."""
+    """Indices ``(nx, ny)`` of the trials up to ``omega_trials`` on half sides ``hx``, ``hy``
+    (units of ``L``), without the free plate's rigid-body motions: ``k_x >= (N_x - 1) pi / A``,
+    ``k_x^2 + k_y^2 <= omega``."""
     first = 0 if free else 2
     kmax = math.sqrt(omega_trials)
     ix = np.arange(first, int(kmax * 2.0 * hx / math.pi) + 3)
@@ -62,19 +59,17 @@ def _trial_indices(hx: float, hy: float, free: bool, omega_trials: float):
 
 
 class EdgeEffectSolution:
-    """Modes of a free or clamped plate of aspect ``a/b`` and Poisson ``nu`` up to the dimensionless
-    ``omega_max`` by the edge effect method and its Rayleigh-Ritz step. Lengths are in units of
-    ``L = max(a, b)`` (the plate ``[-A/2, A/2] x [-B/2, B/2]``); the trials ``X_t(x) Y_t(y)``
-    have indices ``(nx[t], ny[t])`` and ``sx[t]``, ``sy[t]``, ordered by ``sx + sy``; mode ``k``
-    (``omega`` ascending) is ``own[k] trial[k] + other[k] trial[partner[k]]`` (``partner[k] =
-    -1``: alone), of mean square 1."""
+    """Modes of a free or clamped plate (aspect ``a/b``, Poisson ``nu``) up to the dimensionless
+    ``omega_max``, lengths in units of ``L = max(a, b)``: trials ``X_t(x) Y_t(y)`` of indices
+    ``(nx[t], ny[t])`` and ``sx[t]``, ``sy[t]``; mode ``k`` (``omega`` ascending) is ``own[k]
+    trial[k] + other[k] trial[partner[k]]`` (``partner[k] = -1``: alone), of mean square 1."""
 
     def __init__(self, boundary: str, nu: float, aspect: float, omega_max: float):
         self.boundary = boundary
         self.nu = nu
         self.aspect = aspect
         self.omega_max = omega_max
-        rx, ry = length_ratios(aspect)
+        rx, ry = ratios(aspect)
         self.half = (0.5 / rx, 0.5 / ry)
         free = boundary == "free"
         hx, hy = self.half
@@ -87,15 +82,17 @@ class EdgeEffectSolution:
         solve_pairs(nx, ny, hx, hy, free, float(nu), sx, sy)
         om = sx + sy
         ok = np.isfinite(om) & (om > 0.0) & (om <= omega_trials)
-        self.unsolved = int(np.sum(~np.isfinite(om)))
         order = np.lexsort((ny[ok], nx[ok], om[ok]))
         trial_omega = np.ascontiguousarray(om[ok][order])
         self.nx = np.ascontiguousarray(nx[ok][order])
         self.ny = np.ascontiguousarray(ny[ok][order])
         self.sx = np.ascontiguousarray(sx[ok][order])
         self.sy = np.ascontiguousarray(sy[ok][order])
-        self._factor_constants = None
-        (cx, gx), (cy, gy) = self.factor_constants()
+        self.constants = (
+            factor_edge_constants(self.sx, self.sy, self.nx, hx, free, float(nu)),
+            factor_edge_constants(self.sy, self.sx, self.ny, hy, free, float(nu)),
+        )  # edge coefficient and normalising factor of every trial's two factors
+        (cx, gx), (cy, gy) = self.constants
         partner = near_pairs(trial_omega, self.nx % 2 * 2 + self.ny % 2, _PAIR_GAP)
         omega, own, other = rayleigh_ritz(
             self.sx, self.sy, self.nx, self.ny, hx, hy, free, float(nu), cx, gx, cy, gy,
@@ -118,23 +115,9 @@ class EdgeEffectSolution:
         self._tables = ({}, {})  # factor tables along x and along y (see _table)
         self.key = solution_key(boundary, nu, aspect, omega_max)
 
-    def factor_constants(self):
-        """``((ce_x, scale_x), (ce_y, scale_y))``: edge coefficient and normalising factor of every
-        trial's two factors ``scale (u + ce e)``, computed once."""
-        if self._factor_constants is None:
-            free = self.boundary == "free"
-            hx, hy = self.half
-            nu = float(self.nu)
-            self._factor_constants = (
-                factor_edge_constants(self.sx, self.sy, self.nx, hx, free, nu),
-                factor_edge_constants(self.sy, self.sx, self.ny, hy, free, nu),
-            )
-        return self._factor_constants
-
     def factors(self, xi: np.ndarray, eta: np.ndarray, n_trials: int):
-        """The factors ``X_t(xi)``, ``Y_t(eta)`` (mean square 1) of the first ``n_trials`` trials at
-        ``xi, eta`` in [-1, 1] (``x = a (xi + 1) / 2``): ``(len(xi), n_trials)`` and ``(len(eta),
-        n_trials)``."""
+        """Factors ``X_t(xi)``, ``Y_t(eta)`` (mean square 1) of the first ``n_trials`` trials at
+        ``xi``, ``eta`` in [-1, 1]: ``(len(xi), n_trials)`` and ``(len(eta), n_trials)``."""
         m = slice(0, n_trials)
         return tuple(
             self._factor_table(axis, np.ascontiguousarray(u, dtype=float), m)
@@ -143,7 +126,7 @@ class EdgeEffectSolution:
 
     def _factor_table(self, axis, u, trials):
         """Factors along ``axis`` (0: x, 1: y) of the trials ``trials`` at ``u`` in [-1, 1]."""
-        (cx, gx), (cy, gy) = self.factor_constants()
+        (cx, gx), (cy, gy) = self.constants
         m = trials
         if axis == 0:
             h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
@@ -152,8 +135,7 @@ class EdgeEffectSolution:
         return factor_table(u * h, s, so, n, h, c, g)
 
     def _table(self, axis, u, trials):
-        """:meth:`_factor_table` at the distinct ``u``, the last two tables of each axis kept (a
-        grid evaluated chunk by chunk shares one axis' coordinates)."""
+        """:meth:`_factor_table` at the distinct ``u``, the last two tables per axis kept."""
         tables = self._tables[axis]
         key = (trials.size, u.size, hash(u.tobytes()), hash(trials.tobytes()))
         held = tables.get(key)
@@ -166,9 +148,9 @@ class EdgeEffectSolution:
         return table
 
     def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
-        """Shapes of modes ``first <= k < n_modes`` (or ``index``, ascending) at ``(xi, eta)``: an
-        array ``(len(xi), n)``, or written into ``out[:, column:column + n]`` and returned; the
-        trials' factors are evaluated once per distinct coordinate."""
+        """Shapes of modes ``first <= k < n_modes`` (or ``index``) at ``(xi, eta)``: ``(len(xi),
+        n)``, or written into ``out[:, column:column + n]``; factors once per distinct
+        coordinate."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
         pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
@@ -187,10 +169,9 @@ class EdgeEffectSolution:
         return out
 
     def product_factors(self, xi, eta, index):
-        """The modes ``index`` (ascending) as tables of factors at the distinct ``xi``, ``eta`` in
-        [-1, 1]: ``(x_own, y_own, x_other, y_other)``, mode ``index[k]`` at ``(xi[a], eta[b])``
-        being ``x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]`` (zero second product for
-        a trial alone)."""
+        """Modes ``index`` (ascending) as tables of factors at the distinct ``xi``, ``eta``:
+        ``(x_own, y_own, x_other, y_other)`` as
+        :meth:`synth.physics.modes.EdgeEffectPart.product_factors`."""
         index = np.asarray(index, dtype=np.int64)
         trial = self.trial[index]
         partner = self.partner[index]
@@ -207,20 +188,13 @@ class EdgeEffectSolution:
 
 
 def solution_key(boundary: str, nu: float, aspect: float, omega_max: float) -> str:
-    """Everything that determines :func:`solve`'s solution, as canonical JSON known before the
-    solve, for caches of what is computed from its modes."""
+    """Everything that sets :func:`solve`'s solution, as canonical JSON known before the solve."""
     return json.dumps(
-        {
-            "method": "edge-effect",
-            "version": _VERSION,
-            "boundary": boundary,
-            "nu": float(nu).hex(),
-            "aspect": float(aspect).hex(),
-            "omega_max": float(omega_max).hex(),
-            "pair_gap": float(_PAIR_GAP).hex(),
-        },
+        {"method": "edge-effect", "version": _VERSION, "boundary": boundary,
+         "nu": float(nu).hex(), "aspect": float(aspect).hex(),
+         "omega_max": float(omega_max).hex(), "pair_gap": float(_PAIR_GAP).hex()},
         sort_keys=True,
-    )
+    )  # fmt: skip
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:

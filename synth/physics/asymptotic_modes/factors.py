@@ -1,7 +1,5 @@
-"""The edge effect shapes' factors ``X(x)`` and ``Y(y)``: their interior and edge parts, edge
-coefficients and normalisation, and the tables of their values the shapes are gathered
-from (numba kernels).
-"""
+"""The edge effect shapes' factors ``X(x)``, ``Y(y)``: interior and edge parts, edge
+coefficients, normalisation and the tables the shapes are gathered from (numba kernels)."""
 
 from __future__ import annotations
 
@@ -13,12 +11,14 @@ from synth.compilation import compiled
 from synth.physics.asymptotic_modes.ritz import factor_exponentials, factor_moments
 from synth.physics.asymptotic_modes.roots import edge_terms, entire_terms
 
+#: 8-point Gauss-Legendre nodes and weights on [-1, 1], for :func:`_norm`.
+_GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
+
 
 @compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
-    """``c_edge`` of the factor ``u(x) + c_edge e(x)`` (``u = cos(k x)`` or ``sin(k x) / k``,
-    ``e = cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``), from the
-    better-conditioned edge condition."""
+    """``c_edge`` of the factor ``u(x) + c_edge e(x)`` from the better-conditioned edge
+    condition."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     c, ks, sk = entire_terms(s, h)
@@ -48,8 +48,7 @@ def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
 
 @compiled()
 def interior_part(x, s, h, n):  # pragma: no cover
-    """Interior part ``u`` of one factor at ``x`` in ``[-h, h]`` (unnormalised, see
-    the factor ``u + ce e``): ``cos``, ``sin / k`` (``cosh``, ``sinh / k`` for ``s < 0``)."""
+    """Interior part ``u`` of a factor at ``x``: ``cos``, ``sin / k`` (``cosh``, ``sinh / k``)."""
     odd = n % 2 == 1
     if s > 0.0:
         k = math.sqrt(s)
@@ -62,9 +61,8 @@ def interior_part(x, s, h, n):  # pragma: no cover
 
 @compiled()
 def edge_part(x, s, so, h, n):  # pragma: no cover
-    """Edge part ``e`` of one factor at ``x`` in ``[-h, h]`` (of the factor ``u + ce e``):
-    ``cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``, ``mu^2 = s + 2 so``
-    (``cos``, ``sin`` for ``mu^2 < 0``), 1 at the edge ``x = h``."""
+    """Edge part ``e`` of a factor at ``x``: ``cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu
+    h)``, ``mu^2 = s + 2 so`` (``cos``, ``sin`` for ``mu^2 < 0``), 1 at ``x = h``."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     if m2 > 0.0:
@@ -84,8 +82,7 @@ def edge_part(x, s, so, h, n):  # pragma: no cover
 
 @compiled()
 def _factor(x, s, so, h, n, ce):  # pragma: no cover
-    """One factor's value ``u + ce e`` at ``x`` in ``[-h, h]`` (unnormalised): each part solves
-    a Helmholtz equation along its axis."""
+    """A factor's value ``u + ce e`` at ``x`` (unnormalised)."""
     return interior_part(x, s, h, n) + ce * edge_part(x, s, so, h, n)
 
 
@@ -94,15 +91,7 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
     """Root mean square of a factor over ``[-h, h]`` (Gauss-Legendre panels)."""
     k = math.sqrt(abs(s)) + math.sqrt(abs(s + 2.0 * so)) + 1.0 / h
     panels = int(k * h / 2.0) + 2
-    # 8-point Gauss-Legendre
-    t = np.array([
-        -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
-        0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363,
-    ])  # fmt: skip
-    w = np.array([
-        0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
-        0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763,
-    ])  # fmt: skip
+    t, w = _GAUSS_NODES, _GAUSS_WEIGHTS
     total = 0.0
     half = h / panels
     for p in range(panels):
@@ -115,9 +104,8 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
 
 @compiled()
 def factor_edge_constants(s, so, n, h, free, nu):  # pragma: no cover
-    """Edge coefficient and ``1 / rms`` of every factor (:func:`_coefficients`; the mean
-    square in closed form, :func:`factor_exponentials` and :func:`factor_moments`, or by
-    :func:`_norm`'s quadrature for the measure-zero polynomial cases)."""
+    """Edge coefficient and ``1 / rms`` of every factor (the mean square in closed form, or by
+    :func:`_norm` for the measure-zero polynomial cases)."""
     ce = np.empty(s.size)
     scale = np.empty(s.size)
     coef = np.zeros(4, dtype=np.complex128)
@@ -148,10 +136,9 @@ def factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 
 @compiled()
 def gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # noqa: PLR0913  # pragma: no cover
-    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (``fx``, ``fy`` the
-    trials' factors at the distinct coordinates ``ix[p]``, ``iy[p]``; ``t = trial[k]``, ``u =
-    partner[k]``, none if -1), the factors first laid out in the modes' order so that each row is
-    two products and a sum over contiguous arrays, in the order of the term-by-term sum."""
+    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (factors ``fx``,
+    ``fy`` at ``ix[p]``, ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1), the
+    factors first laid out in the modes' order."""
     m = trial.size
     gx = np.zeros((fx.shape[0], m))
     hx = np.zeros((fx.shape[0], m))

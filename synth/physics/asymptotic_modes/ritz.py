@@ -1,7 +1,5 @@
-"""The Rayleigh-Ritz step on the edge effect shapes (numba kernels): the near-degenerate
-pairs of one symmetry class, the factors' moments in closed form (sums of exponentials),
-and each pair's 2 x 2 problem or a lone clamped trial's Rayleigh quotient.
-"""
+"""The Rayleigh-Ritz step on the edge effect shapes (numba kernels): near-degenerate pairs,
+the factors' moments in closed form, and each pair's 2 x 2 problem."""
 
 from __future__ import annotations
 
@@ -14,9 +12,8 @@ from synth.compilation import compiled
 
 
 def near_pairs(omega: np.ndarray, cls: np.ndarray, gap: float) -> np.ndarray:
-    """``partner[t]``: the trial paired with trial ``t`` (-1 if none). In ascending order
-    of ``omega``, each unpaired trial takes the nearest unpaired one above it of the same
-    symmetry class ``cls`` within the relative ``gap``."""
+    """``partner[t]`` (-1 if none): in ascending ``omega``, each unpaired trial takes the next
+    unpaired one of its symmetry class ``cls`` within the relative ``gap``."""
     partner = np.full(omega.size, -1, dtype=np.int64)
     for c in np.unique(cls):
         idx = np.flatnonzero(cls == c)
@@ -33,9 +30,8 @@ def near_pairs(omega: np.ndarray, cls: np.ndarray, gap: float) -> np.ndarray:
 
 @compiled()
 def factor_exponentials(s, so, h, n, ce, scale, coef, rate, shift):  # noqa: PLR0913  # pragma: no cover
-    """A factor ``scale (u + ce e)`` as ``sum_t coef[t] exp(rate[t] x + shift[t])`` on ``[-h, h]``
-    into the arrays: the number of terms (4), 0 for the measure-zero polynomial cases ``s = 0``
-    or ``s + 2 so = 0``."""
+    """A factor ``scale (u + ce e)`` as ``sum_t coef[t] exp(rate[t] x + shift[t])``: the number of
+    terms (4), 0 for the polynomial cases ``s = 0`` or ``s + 2 so = 0``."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     if s == 0.0 or m2 == 0.0:
@@ -82,8 +78,8 @@ def _span(a, b, h):  # pragma: no cover
 
 @compiled()
 def factor_moments(c1, a1, b1, c2, a2, b2, h, out):  # pragma: no cover
-    """``out = (Int f g, Int f' g', Int f'' g'', Int f'' g, Int f g'')`` over ``[-h, h]``
-    of two factors in exponential form (:func:`factor_exponentials`), in closed form."""
+    """``(Int f g, Int f' g', Int f'' g'', Int f'' g, Int f g'')`` over ``[-h, h]`` of two
+    factors in exponential form, in closed form."""
     for i in range(5):
         out[i] = 0.0
     for i in range(4):
@@ -100,10 +96,8 @@ def factor_moments(c1, a1, b1, c2, a2, b2, h, out):  # pragma: no cover
 
 @compiled()
 def _pair_eigen(kk, mm):  # pragma: no cover
-    """Eigenpairs ``(lam, v0, v1)`` of the 2 x 2 ``K v = lam M v`` (``M`` positive definite),
-    ``lam`` ascending, ``v^T M v = 1``: Cholesky and one Jacobi rotation of ``L^-1 K L^-T``,
-    orthogonal to rounding even for a nearly degenerate pair (where the quadratic formula loses
-    half the digits)."""
+    """Eigenpairs ``(lam, v0, v1)`` of the 2 x 2 ``K v = lam M v``, ascending, ``v^T M v = 1``:
+    Cholesky and one Jacobi rotation (orthogonal even for a nearly degenerate pair)."""
     l00 = math.sqrt(mm[0, 0])
     l10 = mm[0, 1] / l00
     l11 = math.sqrt(mm[1, 1] - l10 * l10)
@@ -139,10 +133,9 @@ def _pair_eigen(kk, mm):  # pragma: no cover
 def rayleigh_ritz(  # noqa: PLR0913
     sx, sy, nx, ny, hx, hy, free, nu, cx, gx, cy, gy, omega, partner
 ):  # pragma: no cover
-    """``(omega, own, other)`` per trial of the Rayleigh-Ritz step: a pair ``(t, partner[t])``
-    solves ``K v = omega^2 M v`` on its two shapes (the lower root to the lower trial), a clamped
-    trial alone takes its Rayleigh quotient, a free one alone (or one with a polynomial term)
-    keeps its edge effect frequency."""
+    """``(omega, own, other)`` per trial: a pair solves ``K v = omega^2 M v`` on its two shapes
+    (the lower root to the lower trial), a clamped trial alone takes its Rayleigh quotient, a
+    free one alone keeps its edge effect frequency."""
     n = omega.size
     out = omega.copy()
     own = np.ones(n)

@@ -1,8 +1,6 @@
 """The edge effect method's one-dimensional equations (numba kernels): the characteristic
-function of each edge condition and symmetry, its root in the ``N``-th interval by
-Illinois' false position, and the alternation of the two directions' equations for every
-index pair.
-"""
+function of each edge condition and symmetry, its ``N``-th root, and the alternation of the
+two directions' equations for every index pair."""
 
 from __future__ import annotations
 
@@ -22,8 +20,7 @@ _BISECTIONS = 100
 
 @compiled()
 def entire_terms(s, h):  # pragma: no cover
-    """``(cos(k h), k sin(k h), sin(k h) / k)`` for ``k = sqrt(s)``, entire in ``s``
-    (``cosh``, ``-kappa sinh``, ``sinh / kappa`` for ``s = -kappa^2 < 0``)."""
+    """``(cos(k h), k sin(k h), sin(k h) / k)``, ``k = sqrt(s)``, entire in ``s``."""
     if s > 0.0:
         k = math.sqrt(s)
         c, sn = math.cos(k * h), math.sin(k * h)
@@ -37,7 +34,7 @@ def entire_terms(s, h):  # pragma: no cover
 
 @compiled()
 def edge_terms(m2, h):  # pragma: no cover
-    """``(mu tanh(mu h), tanh(mu h) / mu)`` for ``mu = sqrt(m2)``, entire in ``m2``."""
+    """``(mu tanh(mu h), tanh(mu h) / mu)``, ``mu = sqrt(m2)``, entire in ``m2``."""
     if m2 > 0.0:
         m = math.sqrt(m2)
         t = math.tanh(m * h)
@@ -51,8 +48,8 @@ def edge_terms(m2, h):  # pragma: no cover
 
 @compiled()
 def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
-    """Left side of the one-dimensional characteristic equation (module notes) at
-    ``s_x = s`` for ``s_y = so``, half-length ``h``."""
+    """The one-dimensional characteristic function at ``s_x = s`` for ``s_y = so``, half-length
+    ``h``."""
     c, ks, sk = entire_terms(s, h)
     mt, tm = edge_terms(s + 2.0 * so, h)
     if free:
@@ -68,9 +65,8 @@ def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
 
 @compiled()
 def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # noqa: PLR0913  # pragma: no cover
-    """Root of the characteristic function in the bracket ``[lo, hi]`` (values ``flo``,
-    ``fhi`` of opposite signs) by the Illinois variant of regula falsi (superlinear,
-    never leaves the bracket). ``squared``: the variable is ``k`` and ``s = k^2``."""
+    """Root of the characteristic function in ``[lo, hi]`` (values of opposite signs) by
+    Illinois' regula falsi; ``squared``: the variable is ``k``, ``s = k^2``."""
     side = 0
     for _ in range(_BISECTIONS):
         x = (lo * fhi - hi * flo) / (fhi - flo)
@@ -94,10 +90,9 @@ def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # noqa: PLR0913
 
 @compiled()
 def _root(n, so, h, free, nu):  # pragma: no cover
-    """``s`` of the ``n``-th root of the one-dimensional equation for ``s_y = so``: for ``n >= 2``
-    on ``k = sqrt(s)`` in ``((n - 1) pi / (2h), n pi / (2h)]``; for free ``n = 0, 1`` (beam- and
-    torsion-like, ``s`` near 0 or negative) bracketed by scanning ``s`` down from ``(pi /
-    (2h))^2`` or 0 to ``s + 2 so > 0``. NaN if no root is bracketed."""
+    """``s`` of the ``n``-th root for ``s_y = so``: for ``n >= 2`` on ``k = sqrt(s)`` in ``((n - 1)
+    pi / (2h), n pi / (2h)]``; for free ``n = 0, 1`` bracketed by scanning ``s`` down to ``s + 2 so
+    > 0``. NaN if no root is bracketed."""
     odd = n % 2 == 1
     if n >= 2:
         lo = (n - 1) * math.pi / (2.0 * h) * (1.0 + 1e-15)
@@ -130,8 +125,8 @@ def _root(n, so, h, free, nu):  # pragma: no cover
 
 @compiled()
 def solve_pairs(nx, ny, hx, hy, free, nu, sx, sy):  # pragma: no cover
-    """``(s_x, s_y)`` of every index pair by alternating the two equations, in place.
-    Starts from the values in ``sx``, ``sy``."""
+    """``(s_x, s_y)`` of every index pair by alternating the two equations, in place from the
+    values in ``sx``, ``sy``."""
     for k in range(nx.size):
         a, b = sx[k], sy[k]
         for _ in range(_ALTERNATIONS):
@@ -150,14 +145,9 @@ def solve_pairs(nx, ny, hx, hy, free, nu, sx, sy):  # pragma: no cover
 
 
 def starting_s(n, h, free):
-    """Starting ``s`` of index ``n``: Bolotin's phase with ``2 arctan(r) = pi / 2``
-    (the beam's ``(n - 1/2) pi``), 0 for the free low families."""
+    """Starting ``s`` of index ``n``: Bolotin's phase ``(n - 1/2) pi``, 0 for the free low
+    families."""
     k = (n - 0.5) * math.pi / (2.0 * h)
     if free:
         k = np.where(n >= 2, k, np.where(n == 1, 0.5 * math.pi / (2.0 * h), 0.0))
     return np.asarray(k * k, dtype=float)
-
-
-def length_ratios(aspect: float):
-    """``(L/a, L/b)`` for ``aspect = a/b`` and ``L = max(a, b)``."""
-    return (1.0, aspect) if aspect >= 1.0 else (1.0 / aspect, 1.0)

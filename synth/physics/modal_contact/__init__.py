@@ -1,25 +1,19 @@
 """The finite plate in the contact: the ball against the plate's modes (docs/physics.md,
 "Plate impedance" and "Plate modes").
 
-The plate's displacement under the ball is ``w = sum_k q_k + q_rigid + sum_j q_j - x_res``:
-its bending modes seen at the contact point (coupling ``c_k = phi_k(x0)^2 / M_k``, 1/kg),
-a free plate's rigid-body motion, and the residual above the band limit (the infinite
-plate's continuum less the band's, as :data:`RESIDUAL_BINS` lumped modes and a one-pole
-tail). The onset of every contact sees the infinite plate's admittance and the modes add the
-finite plate's reflections and ringing. Ball: ``m u'' = F - m g``, ``F = K delta^n`` with
-``delta = w - u``, or with Hunt & Crossley's or the viscoelastic loss (J. Appl. Mech. 42
-(1975) 440-445; Brilliantov et al. 1996; docs/physics.md, "Contact losses").
+The plate under the ball is ``w = sum_k q_k + q_rigid + sum_j q_j - x_res``: its bending modes
+at the contact point (coupling ``c_k = phi_k(x0)^2 / M_k``, 1/kg), a free plate's rigid-body
+motion, and the residual above the band (the infinite plate's continuum less the band's, as
+:data:`RESIDUAL_BINS` lumped modes and a one-pole tail), so every contact starts on the
+infinite plate's admittance and the modes add the reflections and ringing. Ball: ``m u'' = F
+- m g``, ``F = K delta^n``, ``delta = w - u``, or with Hunt & Crossley's (J. Appl. Mech. 42
+(1975) 440-445) or the viscoelastic loss (Brilliantov et al. 1996).
 
-Numerics: fixed steps with a first-order hold on the force; every linear part is advanced
-exactly by exponential integrators (Hochbruck & Ostermann, Acta Numerica 19 (2010)
-209-286), the force at the step's end the root of one monotone scalar equation, so the
-scheme is implicit in the contact, unconditionally stable and second order in ``h``. The
-modes are an eigen-solution of exactly the band (:func:`band_modes`), so results do not
-depend on the caches. Energy is book-kept and its balance reported as ``energy_residual``.
-
-Modules: :mod:`~.kernels` (numba kernels), :mod:`~.point` (the plate seen from one point,
-its cache and residual), :mod:`~.contact` (the impact, the plate's state, the next landing).
-"""
+Numerics: fixed steps with a first-order hold on the force, every linear part advanced exactly
+by exponential integrators (Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286), the force
+at a step's end the root of one monotone scalar equation: implicit in the contact,
+unconditionally stable, second order. The modes solve exactly the band (:func:`band_modes`),
+so results do not depend on the caches; the energy balance is ``energy_residual``."""
 
 from synth.physics.modal_contact.contact import (
     BAND_FACTOR,

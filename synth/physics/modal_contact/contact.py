@@ -1,7 +1,6 @@
-"""The ball against the plate's modes (:mod:`synth.physics.modal_contact`): the plate's
-state under the ball between impacts (:class:`PlateRinging`), one impact
-(:class:`ModalContact`, :class:`ModalImpactResult`) and the next landing on the ringing
-plate (:func:`next_touch`)."""
+"""The ball against the plate's modes (:mod:`synth.physics.modal_contact`): the plate's state
+between impacts (:class:`PlateRinging`), one impact (:class:`ModalContact`) and the next
+landing on the ringing plate (:func:`next_touch`)."""
 
 from __future__ import annotations
 
@@ -19,6 +18,7 @@ from synth.physics.contact import ImpactResult, check_law_fields, check_points, 
 from synth.physics.contact_kernels.equations import yield_law_arrays
 from synth.physics.contact_law import contact_parameters
 from synth.physics.modal_contact.kernels import (
+    BallLaw,
     contact_kernel,
     first_touch,
     force_end,
@@ -41,51 +41,36 @@ SETTLE_FACTOR = 40.0
 
 @dataclass(frozen=True, eq=False)
 class PlateRinging:
-    """The plate's state under the ball: bending-mode displacements ``q`` (m) and velocities
-    ``v`` (m/s) at the contact point (one per mode of the :class:`ModalPoint`), the
-    residual's tail displacement ``x_res`` (m, downward), and its lumped modes'
-    displacements ``q_res`` (m) and velocities ``v_res`` (m/s) (one per lumped mode). A
-    plate at rest is all zeros."""
+    """The plate's state under the ball: displacements ``q`` (m) and velocities ``v`` (m/s) of
+    the band's ``n_band`` modes then the residual's lumped modes, and the residual's tail
+    displacement ``x_res`` (m, downward). A plate at rest is all zeros."""
 
     q: np.ndarray
     v: np.ndarray
-    x_res: float = 0.0
-    q_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    v_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    x_res: float
+    n_band: int
 
     @property
     def displacement(self) -> float:
         """Displacement of the surface under the ball, m, positive upward."""
-        return float(self.q.sum()) + float(self.q_res.sum()) - self.x_res
-
-    @classmethod
-    def split(cls, q, v, x_res, n) -> PlateRinging:
-        """The state of the ``n`` band modes' then the lumped modes' ``q`` (m), ``v`` (m/s)."""
-        return cls(q[:n], v[:n], x_res, q[n:], v[n:])
-
-    def joined(self) -> tuple[np.ndarray, np.ndarray]:
-        """Fresh float arrays of ``q`` and ``v`` (m, m/s), the band's modes then the lumped."""
-        return np.concatenate((self.q, self.q_res), dtype=float), np.concatenate(
-            (self.v, self.v_res), dtype=float
-        )
+        n = self.n_band
+        return float(self.q[:n].sum()) + float(self.q[n:].sum()) - self.x_res
 
     @property
     def velocity(self) -> float:
-        """Bending velocity of the surface under the ball (the band's and the residual's
-        lumped modes), m/s, positive upward."""
-        return float(self.v.sum()) + float(self.v_res.sum())
+        """Bending velocity of the surface under the ball, m/s, positive upward."""
+        n = self.n_band
+        return float(self.v[:n].sum()) + float(self.v[n:].sum())
 
 
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
-    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: between the
-    solver's steps (``step_times``, s) the pulse is the contact law of the cubic Hermite
-    interpolant of the penetrations ``step_gaps`` (m) and rates ``step_rates`` (m/s), rising
-    after first touch as the law does. ``contact_time`` is the force pulse's length,
-    ``separation_time`` the last step's (the samples ``time``, ``force`` span it);
-    ``contact_loss`` the energy (J) the contact's loss and plastic flow took; ``ringing`` the
-    plate's state at separation; ``restitution`` the ball's upward speed at separation over
-    its impact speed (what bounce times measure)."""
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: between the steps
+    (``step_times``, s) the pulse is the contact law of the cubic Hermite interpolant of
+    ``step_gaps`` (m) and ``step_rates`` (m/s). ``contact_time`` is the force pulse's length,
+    ``separation_time`` the last step's; ``contact_loss`` the energy (J) the contact's loss and
+    plastic flow took; ``ringing`` the plate at separation; ``restitution`` the ball's upward
+    speed at separation over its impact speed (what bounce times measure)."""
 
     step_times: np.ndarray | None = field(default=None, repr=False)
     step_forces: np.ndarray | None = field(default=None, repr=False)
@@ -107,8 +92,7 @@ class ModalImpactResult(ImpactResult):
 
     @property
     def pulse_order(self) -> float:
-        """As :attr:`ImpactResult.pulse_order`: ``n + 1``, or ``3/2`` with the viscoelastic
-        loss (the force rises like ``t^(1/2)``)."""
+        """``n + 1``, or ``3/2`` with the viscoelastic loss (the force rises like ``t^(1/2)``)."""
         return 1.5 if self.law_viscous_time != 0.0 else self.law_exponent + 1.0
 
     def _sample_pulse(self):
@@ -118,48 +102,26 @@ class ModalImpactResult(ImpactResult):
         return times, forces
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
-        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first touch,
-        a 1-D array); both 0 outside the contact."""
+        """Force (N) and its rate (N/s) at times ``t`` (s from first touch, 1-D); 0 outside:
+        the law as ``F = K (a + c delta')``, ``c = mu a + b r``, ``F >= 0``, with ``a = delta^n``,
+        ``r = delta^(n-1)`` or Thornton's yield (the largest penetration before a step its
+        state)."""
         tt = np.asarray(t, dtype=float).ravel()
         ts = self.step_times
         i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
         h = ts[i + 1] - ts[i]
-        u = (tt - ts[i]) / h
-        delta, rate, accel = hermite(u, h, self.step_gaps, self.step_rates, i)
+        delta, rate, accel = hermite((tt - ts[i]) / h, h, self.step_gaps, self.step_rates, i)
         inside = (tt >= 0.0) & (tt <= self.separation_time) & (delta > 0.0)
-        dpos = np.where(inside, delta, 1.0)
-        n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
-        b = 1.5 * self.law_viscous_time
-        if self.law_yield_penetration != math.inf:
-            return self._yield_force_and_slope(i, inside, dpos, rate, accel)
-        elastic = K * dpos**n
-        elastic_slope = n * K * dpos ** (n - 1.0) * rate
-        if mu == 0.0 and b == 0.0:
-            return np.where(inside, elastic, 0.0), np.where(inside, elastic_slope, 0.0)
-        if b == 0.0:
-            # Hunt-Crossley: F = K delta^n (1 + mu delta'), F >= 0
-            lossy = inside & (1.0 + mu * rate > 0.0)
-            force = np.where(lossy, elastic * (1.0 + mu * rate), 0.0)
-            slope = np.where(lossy, elastic_slope * (1.0 + mu * rate) + elastic * mu * accel, 0.0)
-            return force, slope
-        # F = K delta^(n-1) (delta + c delta'), c = mu delta + b, F >= 0
-        root = K * dpos ** (n - 1.0)
-        c = mu * dpos + b
-        lossy = inside & (dpos + c * rate > 0.0)
-        force = np.where(lossy, root * (dpos + c * rate), 0.0)
-        root_slope = (n - 1.0) * root / dpos * rate
-        slope = root_slope * (dpos + c * rate) + root * (rate + mu * rate * rate + c * accel)
-        return force, np.where(lossy, slope, 0.0)
-
-    def _yield_force_and_slope(self, i, inside, delta, rate, accel):
-        """:meth:`force_and_slope_at` of Thornton's law (``yield_law``, in metres) at the
-        penetrations ``delta`` (m), rates ``rate`` (m/s) and accelerations ``accel`` (m/s^2)
-        inside steps ``i``, the largest penetration before each step its state:
-        ``F = K (a + c delta')``, ``c = mu a + b r``, ``F >= 0``."""
+        d = np.ascontiguousarray(np.where(inside, delta, 1.0))
+        n = self.law_exponent
+        if self.law_yield_penetration == math.inf:
+            r = d ** (n - 1.0)
+            a, da, dr = r * d, n * r, (n - 1.0) * r / d
+        else:
+            dm = np.ascontiguousarray(np.maximum.accumulate(self.step_gaps)[i], dtype=float)
+            a, r, da, dr = (np.empty_like(d) for _ in range(4))
+            yield_law_arrays(d, self.law_yield_penetration, dm, a, r, da, dr)
         K, mu, b = self.law_stiffness, self.law_dissipation, 1.5 * self.law_viscous_time
-        dm = np.ascontiguousarray(np.maximum.accumulate(self.step_gaps)[i], dtype=float)
-        a, r, da, dr = (np.empty_like(delta) for _ in range(4))
-        yield_law_arrays(np.ascontiguousarray(delta), self.law_yield_penetration, dm, a, r, da, dr)
         c = mu * a + b * r
         force = K * (a + c * rate)
         slope = K * (da * rate + (mu * da + b * dr) * rate * rate + c * accel)
@@ -169,21 +131,19 @@ class ModalImpactResult(ImpactResult):
     def pulse_samples(
         self, step: float, points: int, offset: float, period: float, samples: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Force (N) and its rate (N/s) at ``j step`` (``j < points``) and then at ``offset +
-        m period`` (``m < samples``), times in s from first touch."""
+        """Force (N) and its rate (N/s) at ``j step`` (``j < points``), then ``offset + m period``
+        (``m < samples``), s from first touch."""
         t = np.concatenate((np.arange(points) * step, offset + np.arange(samples) * period))
         return self.force_and_slope_at(t)
 
 
 @dataclass(frozen=True, eq=False)
 class ModalContact:
-    """Impacts of one ball on a finite plate at one point, the plate modelled by its modes
-    (:class:`ModalPoint`): built by :meth:`for_pair`; :meth:`solve` gives one impact,
-    :meth:`ring` the plate's free ringing between impacts. ``mass`` (kg), ``stiffness``
-    (N/m^n), ``exponent``, ``gravity`` (m/s^2), ``dissipation`` (s/m), ``viscous_time`` (s)
-    and ``yield_penetration`` (m) as :class:`~synth.physics.contact.ContactSolver`'s; with
-    both losses the force is ``K delta^(n-1) (delta + (mu delta + 3/2 A) delta')``, ``F >=
-    0``. ``steps_per_contact``: fixed steps over one impedance-model contact time."""
+    """Impacts of a ball on a finite plate at one point, the plate as its modes
+    (:class:`ModalPoint`). ``mass`` (kg), ``stiffness`` (N/m^n), ``exponent``, ``gravity``
+    (m/s^2), ``dissipation`` (s/m), ``viscous_time`` (s) and ``yield_penetration`` (m) as
+    :class:`~synth.physics.contact.ContactSolver`'s; ``steps_per_contact``: fixed steps over one
+    impedance-model contact time."""
 
     point: ModalPoint
     mass: float
@@ -217,16 +177,14 @@ class ModalContact:
         gravity: float = GRAVITY,
         law: str = "hertz",
         max_frequency: float | None = None,
-        steps_per_contact: int = STEPS_PER_CONTACT,
         speed: float | None = None,
         theory: str = "kirchhoff",
         **contact_options,
     ) -> ModalContact:
-        """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
-        under the contact ``law`` and its options (:func:`synth.physics.contact_law.contact_law`).
-        ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's
-        contact time at ``speed`` (m/s; default 1 m/s); ``theory`` is the plate theory of
-        :func:`modal_point`."""
+        """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre) under
+        the contact ``law`` and its options (:func:`synth.physics.contact_law.contact_parameters`).
+        ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's contact
+        time at ``speed`` (m/s; default 1); ``theory``: :func:`modal_point`'s."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
@@ -245,51 +203,50 @@ class ModalContact:
             max_frequency = BAND_FACTOR / tau
         point = modal_point(plate, pos, max_frequency=max_frequency, theory=theory)
         return cls(
-            point, ball.mass, K, n, gravity, steps_per_contact, mu, A, law_.yield_penetration
-        )
+            point, ball.mass, K, n, gravity, dissipation=mu, viscous_time=A,
+            yield_penetration=law_.yield_penetration,
+        )  # fmt: skip
 
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
-        z = np.zeros(self.point.omega.size)
-        zr = np.zeros(self.point.residual_omega.size)
-        return PlateRinging(z, z.copy(), 0.0, zr, zr.copy())
+        p = self.point
+        n = p.omega.size + p.residual_omega.size
+        return PlateRinging(np.zeros(n), np.zeros(n), 0.0, p.omega.size)
 
     def ring(self, state: PlateRinging, duration: float) -> PlateRinging:
         """The plate's state after ringing freely for ``duration`` (s)."""
         d = checks.nonnegative("duration", duration, "s")
         p = self.point
-        q, v = state.joined()
+        q, v = state.q.copy(), state.v.copy()
         if d > 0.0:
             omega, sigma, _ = p.contact_modes
             ring_free(omega, sigma, q, v, d)
         x = state.x_res * math.exp(-p.residual_rate * d)
-        return PlateRinging.split(q, v, x, p.omega.size)
+        return PlateRinging(q, v, x, p.omega.size)
 
     def energy(self, state: PlateRinging) -> float:
-        """Energy of the bending modes and the residual's lumped modes in ``state`` (J):
-        ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` summed, plus the residual's tail spring's
-        ``a x_res^2 / (2 beta_W)``."""
+        """Energy in ``state`` (J): ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` summed over the modes,
+        plus the residual's tail spring ``a x_res^2 / (2 beta_W)``."""
         p = self.point
         omega, _, coupling = p.contact_modes
-        q, v = state.joined()
+        q, v = state.q, state.v
         modal = 0.5 * float(((v**2 + omega**2 * q**2) / coupling).sum())
         return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
 
     def solve(
         self, speed: float, state: PlateRinging | None = None, *, n_points: int = 128
     ) -> ModalImpactResult:
-        """The impact at ``speed`` (m/s, the ball's downward speed at first touch) on the plate
-        in ``state`` at that moment (None: at rest); ``n_points`` uniform samples of the
-        pulse in ``time`` and ``force``."""
+        """The impact at ``speed`` (m/s, downward at first touch) on the plate in ``state`` (None:
+        at rest); ``n_points`` uniform samples of the pulse in ``time`` and ``force``."""
         v_in = checks.positive("speed", speed, "m/s")
         n_points = check_points(n_points)
         p = self.point
         state = self.at_rest() if state is None else state
-        shapes = (state.q.shape, state.v.shape, state.q_res.shape, state.v_res.shape)
-        if shapes != (p.omega.shape,) * 2 + (p.residual_omega.shape,) * 2:
+        n = p.omega.size + p.residual_omega.size
+        if state.q.shape != (n,) or state.v.shape != (n,) or state.n_band != p.omega.size:
             raise ParameterError(
-                f"state has {state.q.size} modes and {state.q_res.size} lumped residual modes; "
-                f"this contact has {p.omega.size} and {p.residual_omega.size} (one per mode)"
+                f"state has {state.q.size} oscillators, {state.n_band} of the band; this contact "
+                f"has {n}, {p.omega.size} of the band (one per mode)"
             )
         v_approach = v_in + state.velocity
         if not v_approach > 0.0:
@@ -303,21 +260,19 @@ class ModalContact:
         )  # fmt: skip
         h = ref.separation_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
-        q, v = state.joined()
+        q, v = state.q.copy(), state.v.copy()
         x = np.array([state.x_res])
-        omega, sigma, coupling = p.contact_modes
         pulse = np.zeros((4, max_steps + 1))  # times, forces, gaps and rates at the steps
         e0, w0 = self.energy(state), state.displacement
-        announce("modal-contact")
-        o = contact_kernel(
-            omega, sigma, coupling, p.rigid_coupling, p.residual_admittance, p.residual_rate,
-            q, v, x, self.mass, self.stiffness, self.exponent, self.dissipation,
-            1.5 * self.viscous_time,
-            None if self.yield_penetration == math.inf else self.yield_penetration,
-            self.gravity, v_in, h, max_steps, pulse[1], pulse[0], pulse[2], pulse[3],
+        law = BallLaw(
+            self.mass, self.stiffness, self.exponent, self.dissipation, 1.5 * self.viscous_time,
+            self.gravity,
         )  # fmt: skip
+        dy = None if self.yield_penetration == math.inf else self.yield_penetration
+        announce("modal-contact")
+        o = contact_kernel(p.oscillators, q, v, x, law, dy, v_in, h, max_steps, pulse)
         times, forces, gaps, rates = pulse[:, : o.steps + 1].copy()
-        ringing = PlateRinging.split(q, v, float(x[0]), p.omega.size)
+        ringing = PlateRinging(q, v, float(x[0]), p.omega.size)
         e_plate = self.energy(ringing)
         rigid = 0.5 * o.rigid_v**2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
         # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
@@ -341,52 +296,32 @@ class ModalContact:
             f"impedance model: it rests on the plate."
         )  # fmt: skip
         return ModalImpactResult(
-            restitution=o.v / v_in if o.separated and o.v > 0.0 else 0.0,
-            contact_time=t_force,
-            separation_time=o.time,
-            max_penetration=o.dmax,
-            peak_force=o.fmax,
-            impulse=o.impulse,
-            inelasticity=ref.inelasticity,
-            settled=not o.separated,
-            rebound_speed=max(o.v, 0.0) if o.separated else 0.0,
-            plate_energy=plate,
-            energy_residual=residual,
-            success=True,
-            status=0 if o.separated else 1,
-            message=message,
-            n_steps=o.steps,
-            method="modal",
-            step_times=times,
-            step_forces=forces,
-            step_gaps=gaps,
-            step_rates=rates,
-            law_stiffness=self.stiffness,
-            law_exponent=self.exponent,
-            law_dissipation=self.dissipation,
-            law_viscous_time=self.viscous_time,
-            law_yield_penetration=self.yield_penetration,
-            contact_loss=o.contact_loss,
-            ringing=ringing,
-            plate_modal_energy=e_plate,
+            restitution=o.v / v_in if o.separated and o.v > 0.0 else 0.0, contact_time=t_force,
+            separation_time=o.time, max_penetration=o.dmax, peak_force=o.fmax,
+            impulse=o.impulse, inelasticity=ref.inelasticity, settled=not o.separated,
+            rebound_speed=max(o.v, 0.0) if o.separated else 0.0, plate_energy=plate,
+            energy_residual=residual, success=True, status=0 if o.separated else 1,
+            message=message, n_steps=o.steps, method="modal", step_times=times,
+            step_forces=forces, step_gaps=gaps, step_rates=rates, law_stiffness=self.stiffness,
+            law_exponent=self.exponent, law_dissipation=self.dissipation,
+            law_viscous_time=self.viscous_time, law_yield_penetration=self.yield_penetration,
+            contact_loss=o.contact_loss, ringing=ringing, plate_modal_energy=e_plate,
             n_points=n_points,
-        )
+        )  # fmt: skip
 
 
 def next_touch(
     contact: ModalContact, state: PlateRinging, height: float, speed: float
 ) -> tuple[float, PlateRinging]:
-    """The ball's next landing on the ringing plate: the first time ``s`` (s, from now) at which
-    the ball, at ``height`` (m above the plate's rest position) moving up at ``speed`` (m/s),
-    meets the surface ringing from ``state``, and the plate's state then
-    (:func:`~synth.physics.modal_contact.kernels.first_touch`)."""
+    """The ball's next landing on the ringing plate: the first time ``s`` (s from now) at which
+    the ball at ``height`` (m above the plate's rest) rising at ``speed`` (m/s) meets the
+    surface ringing from ``state``, and the plate's state then."""
     p = contact.point
     g = contact.gravity
     if not g > 0.0:
         raise ParameterError("the ball lands again only with gravity > 0")
-    omega, sigma, _ = p.contact_modes
-    qs, vs = state.joined()
-    W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / omega) ** 2).sum())
+    qs, vs = state.q, state.v
+    W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / p.oscillators.omega) ** 2).sum())
     v = speed
 
     def when(level):  # the later time at which the ball passes ``level`` going down
@@ -396,15 +331,15 @@ def next_touch(
     dt = 1.0 / (8.0 * p.max_frequency)
     s0 = when(W) if height + v * v / (2.0 * g) > W else dt
     s = first_touch(
-        omega, sigma, qs, vs, float(state.x_res), float(p.residual_rate),
-        float(height), float(v), float(g), dt, s0, when(-W),
+        p.oscillators, qs, vs, float(state.x_res), float(height), float(v), float(g), dt, s0,
+        when(-W),
     )  # fmt: skip
     return s, contact.ring(state, s)
 
 
 def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
-    """The impedance model's impact (the infinite plate; Hunt-Crossley loss ``mu``, s/m, and
-    viscoelastic ``A``, s), for the time scale of the modal one."""
+    """The impedance model's impact (infinite plate; Hunt-Crossley ``mu``, s/m, viscoelastic
+    ``A``, s): the modal contact's time scale."""
     return solve_contact(
         mass=float(m), stiffness=float(K),
         admittance=1.0 / impedance.infinite_plate_impedance(plate), speed=float(v), gravity=0.0,
@@ -415,9 +350,8 @@ def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
 def impedance_contact_time(
     ball: Ball, plate: Plate, speed: float, *, law: str = "hertz", **contact_options
 ) -> float:
-    """The impedance model's time to separation (s) of ``ball`` on ``plate`` at ``speed``
-    (m/s), without gravity, under the contact ``law`` and its options: the time scale of
-    :meth:`ModalContact.for_pair`'s band and :meth:`ModalContact.solve`'s steps."""
+    """The impedance model's time to separation (s) of ``ball`` on ``plate`` at ``speed`` (m/s)
+    without gravity under ``law``: the time scale of :class:`ModalContact`'s band and steps."""
     c = contact_parameters(ball, plate, law, **contact_options)
     v = checks.positive("speed", speed, "m/s")
     return _impedance_contact(

@@ -1,7 +1,5 @@
-"""Numba kernels of the modal contact (:mod:`synth.physics.modal_contact`): one contact
-integrated in fixed steps (exponential integrators for every linear part, the contact force
-implicit) and the free ringing of damped modes. The numerics are described in the package's
-docstring."""
+"""Numba kernels of the modal contact (:mod:`synth.physics.modal_contact`, whose docstring
+describes the numerics): one contact in fixed steps and the free ringing of damped modes."""
 
 from __future__ import annotations
 
@@ -14,12 +12,36 @@ from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import yield_law, yield_potential
 
 
+class Oscillators(NamedTuple):
+    """The plate under the ball as the kernels drive it: modes' ``omega`` (rad/s), ``sigma``
+    (1/s), couplings ``c`` (1/kg); rigid-body coupling ``rc`` (1/kg); the residual's tail
+    admittance ``beta`` (m/(N s)) and rate ``a`` (1/s)."""
+
+    omega: np.ndarray
+    sigma: np.ndarray
+    c: np.ndarray
+    rc: float
+    beta: float
+    a: float
+
+
+class BallLaw(NamedTuple):
+    """Ball mass ``m`` (kg), gravity ``g`` (m/s^2) and the law ``F = K delta^(n-1) (delta +
+    (mu delta + b) delta')`` (``K`` N/m^n, ``mu`` s/m, ``b`` s)."""
+
+    m: float
+    K: float
+    n: float
+    mu: float
+    b: float
+    g: float
+
+
 class Outcome(NamedTuple):
-    """One contact of :func:`contact_kernel`: whether the ball separated (else it rests on the
-    plate), the time to separation (s), the ball's velocity (m/s, upward) and height (m) then,
-    the largest penetration (m) and force (N), the impulse (N s), the steps, the energies the
-    modes' damping, the residual's dashpot and the contact's loss took (J) and the rigid
-    body's velocity (m/s)."""
+    """One contact of :func:`contact_kernel`: separated (else the ball rests on the plate), time
+    to separation (s), the ball's velocity (m/s, upward) and height (m) then, largest penetration
+    (m) and force (N), impulse (N s), steps, the energies taken by the modes' damping, the
+    residual's dashpot and the contact's loss (J), and the rigid body's velocity (m/s)."""
 
     separated: bool
     time: float
@@ -37,10 +59,9 @@ class Outcome(NamedTuple):
 
 @compiled(inline="always")
 def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
-    """The root of ``f(x, *args)`` in ``[lo, hi]``, ``f_lo = f(lo) > 0 >= f_hi = f(hi)``:
-    Illinois' false position (Dowell & Jarratt, BIT 11 (1971) 168-174), a bisection where its
-    step leaves the bracket, until the bracket is within ``atol + rtol hi`` or ``f`` is 0.
-    Returns the bracket's end ``hi`` (``f <= 0`` there)."""
+    """Root of ``f(x, *args)`` in ``[lo, hi]`` with ``f(lo) > 0 >= f(hi)`` by Illinois' false
+    position (Dowell & Jarratt, BIT 11 (1971) 168-174), bisecting where a step leaves the
+    bracket, to ``atol + rtol hi``; returns the end ``hi`` (``f <= 0`` there)."""
     side = 0
     for _ in range(200):
         if hi - lo <= atol + rtol * hi:
@@ -66,8 +87,8 @@ def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
 
 @compiled()
 def _phi12(z):  # pragma: no cover
-    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex z), by
-    their Taylor series near 0 (no cancellation) and the closed forms elsewhere."""
+    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex), by Taylor
+    series near 0 (no cancellation)."""
     if abs(z) < 0.1:
         p1 = 0j
         p2 = 0j
@@ -83,18 +104,16 @@ def _phi12(z):  # pragma: no cover
 
 @compiled()
 def _transition(omega, sigma, h):  # pragma: no cover
-    """The free oscillation of ``q'' + 2 sigma q' + omega^2 q = 0`` (underdamped) over a step
-    ``h`` (s): the damped frequency ``omega_d = sqrt(omega^2 - sigma^2)`` (rad/s), the decay
-    ``e^(-sigma h)`` and ``cos``, ``sin(omega_d h)``, from which the transition matrix is
-    ``e^(-sigma h) [[c + sigma/omega_d s, s/omega_d], [-omega^2/omega_d s,
-    c - sigma/omega_d s]]``."""
+    """Damped frequency ``omega_d`` (rad/s), ``e^(-sigma h)``, ``cos`` and ``sin(omega_d h)`` of
+    ``q'' + 2 sigma q' + omega^2 q = 0`` over ``h`` (s), whose transition matrix is ``e^(-sigma
+    h) [[c + sigma/omega_d s, s/omega_d], [-omega^2/omega_d s, c - sigma/omega_d s]]``."""
     wd = math.sqrt(omega * omega - sigma * sigma)
     return wd, math.exp(-sigma * h), math.cos(wd * h), math.sin(wd * h)
 
 
 @compiled()
 def _transition_matrix(omega, sigma, h, P):  # pragma: no cover
-    """The rows (P11, P12, P21, P22) of :func:`_transition`'s matrix of each mode over ``h``."""
+    """Rows (P11, P12, P21, P22) of each mode's :func:`_transition` matrix over ``h``."""
     for k in range(omega.size):
         s = sigma[k]
         w0 = omega[k]
@@ -107,10 +126,9 @@ def _transition_matrix(omega, sigma, h, P):  # pragma: no cover
 
 @compiled()
 def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
-    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
-    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
-    ``P`` rows (P11, P12, P21, P22) the transition matrix of :func:`_transition`, ``G`` rows
-    (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f``, ``f`` linear over it:
+    ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``, ``G`` rows (f0 -> q, f1 -> q,
+    f0 -> v, f1 -> v)."""
     _transition_matrix(omega, sigma, h, P)
     for k in range(omega.size):
         wd = math.sqrt(omega[k] * omega[k] - sigma[k] * sigma[k])
@@ -126,15 +144,15 @@ def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
 
 @compiled()
 def _real_coefficients(a, h):  # pragma: no cover
-    """Step ``h`` of ``x' = -a x + f`` with ``f`` linear: ``x(h) = E x(0) + g0 f(0) + g1 f(h)``."""
+    """Step ``h`` of ``x' = -a x + f``, ``f`` linear: ``x(h) = E x(0) + g0 f(0) + g1 f(h)``."""
     p1, p2 = _phi12(complex(-a * h, 0.0))
     return math.exp(-a * h), h * (p1.real - p2.real), h * p2.real
 
 
 @compiled()
 def _solve_delta(A, B, K, n):  # pragma: no cover
-    """The root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above
-    (the left side is convex and increasing)."""
+    """Root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above (convex,
+    increasing)."""
     d = A
     # start from the smaller of the two one-term solutions: both bound the root from above
     d2 = (A / (B * K)) ** (1.0 / n) if B > 0.0 else A
@@ -154,15 +172,20 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
 
 
 @compiled()
-def _yield_force(d, K, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """:func:`_lossy_force` of the Hertz law with Thornton's yield (``dy``, m, the yield
-    penetration; ``dm``, m, the largest penetration before the step): ``F = K (a + c
-    d')``, ``c = mu a + b r``, with the elastic-plastic force ``K a`` and the contact radius
-    factor ``r`` of :func:`~synth.physics.contact_kernels.equations.yield_law` (in metres:
-    the law is homogeneous), solved for ``F`` at ``d' = Av - Bv F``; and ``dF / d delta``."""
+def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
+    """Force ``F = K (a + c d')``, ``c = mu a + b r`` (N, >= 0) with ``a = d^n``, ``r = d^(n-1)``
+    (Hunt-Crossley for ``b = 0``, viscoelastic Hertz ``b = 3/2 A`` for ``mu = 0``) or, past a
+    yield ``dy`` (m; None: none), Thornton's ``a``, ``r`` of
+    :func:`~synth.physics.contact_kernels.equations.yield_law` (``dm``, m, the largest
+    penetration before the step), at the end of a step whose rate is ``d' = Av - Bv F``,
+    solved for ``F``; and ``dF / dd`` (N/m)."""
     if d <= 0.0:
         return 0.0, 0.0
-    a, r, da, dr = yield_law(d, dy, dm)
+    if dy is not None:
+        a, r, da, dr = yield_law(d, dy, dm)
+    else:
+        r = d ** (n - 1.0)
+        a, da, dr = r * d, n * r, (n - 1.0) * r / d
     c = mu * a + b * r
     dc = mu * da + b * dr
     num = a + c * Av
@@ -174,43 +197,9 @@ def _yield_force(d, K, mu, b, Av, Bv, dy, dm):  # pragma: no cover
 
 
 @compiled()
-def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """The lossy contact force ``F = K d^(n-1) (d + c(d) d')``, ``c(d) = mu d + b`` (N, at
-    least 0): Hunt-Crossley ``K d^n (1 + mu d')`` for ``b = 0``, the viscoelastic Hertz
-    contact ``K (d^(3/2) + b d^(1/2) d')`` (``b = 3/2 A``) for ``mu = 0``; at the end of a
-    step whose penetration rate is ``d' = Av - Bv F`` (the step's linear response to the
-    force ``F`` at its end), solved for ``F``:
-    ``F = K d^(n-1) (d + c Av) / (1 + c Bv K d^(n-1))``; and its derivative with respect to
-    ``d`` (N/m). With a yield penetration ``dy`` (m; None: no yield; ``dm`` the largest
-    penetration before the step): :func:`_yield_force`."""
-    if dy is not None:
-        return _yield_force(d, K, mu, b, Av, Bv, dy, dm)
-    if d <= 0.0:
-        return 0.0, 0.0
-    if b == 0.0:
-        s = K * d**n
-        num = 1.0 + mu * Av
-        if num <= 0.0:
-            return 0.0, 0.0
-        den = 1.0 + mu * Bv * s
-        return s * num / den, n * s / d * num / (den * den)
-    r = K * d ** (n - 1.0)
-    c = mu * d + b
-    num = d + c * Av
-    if num <= 0.0:
-        return 0.0, 0.0
-    den = 1.0 + c * Bv * r
-    dr = (n - 1.0) * r / d
-    dden = Bv * (mu * r + c * dr)
-    F = r * num / den
-    return F, (dr * num + r * (1.0 + mu * Av)) / den - F * dden / den
-
-
-@compiled()
 def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the lossy force of
-    :func:`_lossy_force` (increasing in ``delta`` where positive: one root in ``[0, A]``):
-    Newton's method kept inside a bracket, bisection where a step leaves it."""
+    """Root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with :func:`_lossy_force`:
+    Newton kept inside a bracket, bisection where a step leaves it."""
     lo = 0.0
     hi = A
     d = _solve_delta(A, B, K, n)  # start from the elastic root
@@ -231,44 +220,39 @@ def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
 
 
 @compiled()
-def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: no cover
-    """Plate displacement under the ball after a step ``h`` with the force at its end left out:
-    modes, rigid body and residual from their states and the force ``F0`` at the start."""
+def _free_gap(q, v, p, P, G, Er, r0, F0, qr, vr, x, u, vs, h, law):  # pragma: no cover
+    """Penetration ``delta`` (m) after a step ``h`` with the force at its end left out."""
     w = 0.0
     for k in range(q.size):
-        w += P[k, 0] * q[k] + P[k, 1] * v[k] - c[k] * G[k, 0] * F0
-    w += qr + vr * h - rc * h * h * F0 / 3.0
-    w -= Er * x + beta * r0 * F0
-    return w
+        w += P[k, 0] * q[k] + P[k, 1] * v[k] - p.c[k] * G[k, 0] * F0
+    w += qr + vr * h - p.rc * h * h * F0 / 3.0
+    w -= Er * x + p.beta * r0 * F0
+    return w - (u + vs * h - 0.5 * law.g * h * h + h * h * F0 / (3.0 * law.m))
 
 
 @compiled()
-def _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h):  # pragma: no cover
-    """Penetration rate ``delta'`` (m/s) after a step ``h`` with the force at its end left out
-    (the part of the rate that does not depend on it): plate surface velocity (modes, rigid
-    body, residual) minus the ball's velocity."""
-    w = vr - 0.5 * rc * h * F0 + a * (Er * x + beta * r0 * F0)
+def _rate_free(q, v, p, P, G, Er, r0, F0, vr, x, vs, h, law):  # pragma: no cover
+    """Penetration rate ``delta'`` (m/s) after a step ``h`` with the force at its end left out."""
+    w = vr - 0.5 * p.rc * h * F0 + p.a * (Er * x + p.beta * r0 * F0)
     for k in range(q.size):
-        w += P[k, 2] * q[k] + P[k, 3] * v[k] - c[k] * G[k, 2] * F0
-    return w - (vs - g * h + 0.5 * h * F0 / m)
+        w += P[k, 2] * q[k] + P[k, 3] * v[k] - p.c[k] * G[k, 2] * F0
+    return w - (vs - law.g * h + 0.5 * h * F0 / law.m)
 
 
 @compiled()
-def _end_gap(h, q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g):  # pragma: no cover
+def _end_gap(h, q, v, p, F0, qr, vr, x, u, vs, law):  # pragma: no cover
     """``delta`` after a step ``h`` over which the force falls linearly from ``F0`` to 0."""
     P = np.empty((q.size, 4))
     G = np.empty((q.size, 4))
-    _mode_coefficients(omega, sigma, h, P, G)
-    Er, r0, _ = _real_coefficients(a, h)
-    w = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
-    ub = u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m)
-    return w - ub
+    _mode_coefficients(p.omega, p.sigma, h, P, G)
+    Er, r0, _ = _real_coefficients(p.a, h)
+    return _free_gap(q, v, p, P, G, Er, r0, F0, qr, vr, x, u, vs, h, law)
 
 
 @compiled()
 def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
-    """Advance the modes over one step with the force going linearly from F0 to F1; returns
-    the modal damping loss over the step (trapezoid rule), J."""
+    """Advance the modes one step with the force linear from F0 to F1; returns the modal
+    damping loss (trapezoid rule), J."""
     loss = 0.0
     for k in range(q.size):
         q0 = q[k]
@@ -281,8 +265,8 @@ def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
 
 @compiled()
 def _surface_velocity(v, vr, xdot):  # pragma: no cover
-    """Velocity of the plate surface under the ball (m/s, upward): bending modes, rigid body
-    and residual (whose displacement ``x_res`` is downward)."""
+    """Velocity of the surface under the ball (m/s, upward): modes, rigid body and residual
+    (``x_res`` downward)."""
     w = vr - xdot
     for k in range(v.size):
         w += v[k]
@@ -290,32 +274,43 @@ def _surface_velocity(v, vr, xdot):  # pragma: no cover
 
 
 @compiled()
-def contact_kernel(  # pragma: no cover
-    omega, sigma, c, rc, beta, a, q, v, x_res, m, K, n, mu, b, dy, g, v_in, h, max_steps,
-    forces, times, gaps, rates,
-):  # fmt: skip
-    """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
-    the contact law ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``
-    (:func:`_lossy_force`; ``mu = b = 0``: elastic), with Thornton's yield past the
-    penetration ``dy`` (m; None: none, the kernel then compiled without the yield's code),
-    the largest penetration of the steps so far its state.
+def _step(q, v, p, P, G, E, r0, r1, x, qr, vr, u, vs, F0, F1, h, law):  # pragma: no cover
+    """One step ``h`` (s), the force linear from ``F0`` to ``F1`` (N), of the modes (in place),
+    the residual's tail ``x`` (m), the rigid body ``qr``, ``vr`` and the ball ``u``, ``vs`` (m,
+    m/s): those, the tail's velocity at the end (m/s), the damping and dashpot losses (J)."""
+    damping = _advance(q, v, P, G, p.c, p.sigma, F0, F1, h)
+    xdot0 = p.beta * F0 - p.a * x
+    x = E * x + p.beta * (r0 * F0 + r1 * F1)
+    xdot1 = p.beta * F1 - p.a * x
+    dashpot = 0.5 * h * (xdot0 * xdot0 + xdot1 * xdot1) / p.beta
+    qr += vr * h - p.rc * h * h * (F0 / 3.0 + F1 / 6.0)
+    vr -= p.rc * h * 0.5 * (F0 + F1)
+    u += vs * h - 0.5 * law.g * h * h + h * h * (F0 / 3.0 + F1 / 6.0) / law.m
+    vs += -law.g * h + h * 0.5 * (F0 + F1) / law.m
+    return x, qr, vr, u, vs, xdot1, damping, dashpot
 
-    ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
-    one: the residual's displacement) are the plate's state at first touch and are advanced
-    in place to the end of contact. ``forces``/``times`` receive the force at every step,
-    ``gaps``/``rates`` the penetration ``delta`` (m) and its rate (m/s)."""
+
+@compiled()
+def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragma: no cover
+    """One contact from first touch (ball velocity ``-v_in``, m/s) on the plate ``p``
+    (:class:`Oscillators`) under ``law`` (:class:`BallLaw`), with Thornton's yield past ``dy``
+    (m; None: none, compiled without it); fixed steps ``h`` (s), the last one cut at separation.
+    ``q``, ``v``, ``x_res`` (array of one) are the plate's state, advanced in place; ``pulse``
+    rows take the time (s), force (N), penetration (m) and its rate (m/s) at every step."""
+    times, forces, gaps, rates = pulse[0], pulse[1], pulse[2], pulse[3]
+    m, K, n, mu, b = law.m, law.K, law.n, law.mu, law.b
     N = q.size
     P = np.empty((N, 4))
     G = np.empty((N, 4))
-    _mode_coefficients(omega, sigma, h, P, G)
-    Er, r0, r1 = _real_coefficients(a, h)
-    B = h * h / (6.0 * m) + rc * h * h / 6.0 + beta * r1
+    _mode_coefficients(p.omega, p.sigma, h, P, G)
+    Er, r0, r1 = _real_coefficients(p.a, h)
+    B = h * h / (6.0 * m) + p.rc * h * h / 6.0 + p.beta * r1
     for k in range(N):
-        B += c[k] * G[k, 1]
+        B += p.c[k] * G[k, 1]
     # the penetration rate at the end of a step is Av - Bv F1 (the lossy laws only)
-    Bv = h / (2.0 * m) + 0.5 * rc * h + beta * (1.0 - a * r1)
+    Bv = h / (2.0 * m) + 0.5 * p.rc * h + p.beta * (1.0 - p.a * r1)
     for k in range(N):
-        Bv += c[k] * G[k, 3]
+        Bv += p.c[k] * G[k, 3]
     lossy = mu != 0.0 or b != 0.0
     plain = not lossy  # the elastic law: its own root
     if dy is not None:
@@ -323,67 +318,37 @@ def contact_kernel(  # pragma: no cover
     contact_loss = 0.0
     work = 0.0  # the elastic-plastic force's work on the penetration (trapezoid rule), J
     Fd0 = 0.0  # the viscous part F - K delta^n of the force at the start of the step
-    w = -x_res[0]
-    for k in range(N):
-        w += q[k]
-    u = w
-    vs = -v_in
-    qr = 0.0
-    vr = 0.0
     x = x_res[0]
-    F0 = 0.0
-    t = 0.0
-    damping_loss = 0.0
-    dashpot_loss = 0.0
-    impulse = 0.0
-    dmax = 0.0
-    fmax = 0.0
-    forces[0] = 0.0
-    times[0] = 0.0
-    gaps[0] = 0.0
+    u = -x
+    for k in range(N):
+        u += q[k]
+    vs = -v_in
+    qr = vr = F0 = t = damping_loss = dashpot_loss = impulse = dmax = fmax = 0.0
+    times[0] = forces[0] = gaps[0] = 0.0
     rates[0] = v_in
     for k in range(N):
         rates[0] += v[k]
     separated = False
     steps = 0
     for i in range(max_steps):
-        wf = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
-        A = wf - (u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m))
-        if A <= 0.0:
-            # the gap opens within this step: the step h' to delta(h') = 0, force falling to 0
+        A = _free_gap(q, v, p, P, G, Er, r0, F0, qr, vr, x, u, vs, h, law)
+        hs, Ps, Gs, Es, s0, s1 = h, P, G, Er, r0, r1
+        separated = A <= 0.0
+        if separated:
+            # the gap opens within this step: the step hs to delta(hs) = 0, force falling to 0
             g_lo = gaps[i] if dy is not None else (F0 / K) ** (1.0 / n)  # delta at the start
-            gap_args = (q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g)
-            hh = illinois(_end_gap, gap_args, 0.0, h, g_lo, A, 1e-13 * h, 0.0)
-            Pe = np.empty((N, 4))
-            Ge = np.empty((N, 4))
-            _mode_coefficients(omega, sigma, hh, Pe, Ge)
-            Ee, e0, _ = _real_coefficients(a, hh)
-            damping_loss += _advance(q, v, Pe, Ge, c, sigma, F0, 0.0, hh)
-            xdot0 = beta * F0 - a * x
-            x = Ee * x + beta * e0 * F0
-            xdot1 = -a * x
-            dashpot_loss += 0.5 * hh * (xdot0 * xdot0 + xdot1 * xdot1) / beta
-            qr += vr * hh - rc * hh * hh * F0 / 3.0
-            vr -= rc * hh * 0.5 * F0
-            u += vs * hh - 0.5 * g * hh * hh + hh * hh * F0 / (3.0 * m)
-            vs += -g * hh + hh * 0.5 * F0 / m
-            impulse += 0.5 * hh * F0
-            contact_loss += 0.5 * hh * Fd0 * rates[i]
-            if dy is not None:
-                work -= 0.5 * K * yield_law(gaps[i], dy, dmax)[0] * gaps[i]
-            t += hh
-            forces[i + 1] = 0.0
-            times[i + 1] = t
-            gaps[i + 1] = 0.0
-            rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
-            separated = True
-            steps = i + 1
-            break
-        if plain:
+            gap_args = (q, v, p, F0, qr, vr, x, u, vs, law)
+            hs = illinois(_end_gap, gap_args, 0.0, h, g_lo, A, 1e-13 * h, 0.0)
+            Ps = np.empty((N, 4))
+            Gs = np.empty((N, 4))
+            _mode_coefficients(p.omega, p.sigma, hs, Ps, Gs)
+            Es, s0, s1 = _real_coefficients(p.a, hs)
+            d1 = F1 = 0.0
+        elif plain:
             d1 = _solve_delta(A, B, K, n)
             F1 = K * d1**n
         else:
-            Av = _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h)
+            Av = _rate_free(q, v, p, P, G, Er, r0, F0, vr, x, vs, h, law)
             d1 = _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dmax)
             F1 = _lossy_force(d1, K, n, mu, b, Av, Bv, dy, dmax)[0]
         Fe1 = 0.0
@@ -391,17 +356,13 @@ def contact_kernel(  # pragma: no cover
             Fe1 = K * yield_law(d1, dy, dmax)[0] if d1 > 0.0 else 0.0
             Fe0 = K * yield_law(gaps[i], dy, dmax)[0] if gaps[i] > 0.0 else 0.0
             work += 0.5 * (Fe0 + Fe1) * (d1 - gaps[i])
-        damping_loss += _advance(q, v, P, G, c, sigma, F0, F1, h)
-        xdot0 = beta * F0 - a * x
-        x = Er * x + beta * (r0 * F0 + r1 * F1)
-        xdot1 = beta * F1 - a * x
-        dashpot_loss += 0.5 * h * (xdot0 * xdot0 + xdot1 * xdot1) / beta
-        qr += vr * h - rc * h * h * (F0 / 3.0 + F1 / 6.0)
-        vr -= rc * h * 0.5 * (F0 + F1)
-        u += vs * h - 0.5 * g * h * h + h * h * (F0 / 3.0 + F1 / 6.0) / m
-        vs += -g * h + h * 0.5 * (F0 + F1) / m
-        impulse += 0.5 * h * (F0 + F1)
-        t += h
+        x, qr, vr, u, vs, xdot1, lost, dashpot = _step(
+            q, v, p, Ps, Gs, Es, s0, s1, x, qr, vr, u, vs, F0, F1, hs, law
+        )
+        damping_loss += lost
+        dashpot_loss += dashpot
+        impulse += 0.5 * hs * (F0 + F1)
+        t += hs
         F0 = F1
         forces[i + 1] = F1
         times[i + 1] = t
@@ -411,13 +372,13 @@ def contact_kernel(  # pragma: no cover
             Fd1 = F1 - K * d1**n
             if dy is not None:
                 Fd1 = F1 - Fe1
-            contact_loss += 0.5 * h * (Fd0 * rates[i] + Fd1 * rates[i + 1])
+            contact_loss += 0.5 * hs * (Fd0 * rates[i] + Fd1 * rates[i + 1])
             Fd0 = Fd1
-        if d1 > dmax:
-            dmax = d1
-        if F1 > fmax:
-            fmax = F1
+        dmax = max(dmax, d1)
+        fmax = max(fmax, F1)
         steps = i + 1
+        if separated:
+            break
     x_res[0] = x
     if dy is not None:
         # the plastic work: the elastic-plastic force's work less the energy it still holds
@@ -431,9 +392,7 @@ def contact_kernel(  # pragma: no cover
 
 @compiled()
 def ring_free(omega, sigma, q, v, duration):  # pragma: no cover
-    """Free ringing of the modes over ``duration`` (s), in place: the transition matrix of
-    :func:`_transition` (the homogeneous part of :func:`_mode_coefficients`) applied to each
-    mode's state."""
+    """Free ringing of the modes over ``duration`` (s), in place (:func:`_transition`)."""
     for k in range(q.size):
         s = sigma[k]
         w0 = omega[k]
@@ -445,51 +404,43 @@ def ring_free(omega, sigma, q, v, duration):  # pragma: no cover
 
 
 @compiled()
-def _surface(omega, sigma, q0, v0, x_res, rate, s, q, v):  # pragma: no cover
-    """Displacement (m, upward) of the surface under the ball ``s`` seconds after the state
-    ``q0``, ``v0`` (m, m/s; the band's modes then the residual's lumped ones, as ``omega``
-    and ``sigma``) and ``x_res`` (m, the residual's tail, decaying at ``rate``, 1/s), as
-    :meth:`ModalContact.ring` gives it; ``q``, ``v`` are work arrays."""
+def _surface(p, q0, v0, x_res, s, q, v):  # pragma: no cover
+    """Displacement (m, upward) of the surface under the ball ``s`` (s) after the state ``q0``,
+    ``v0``, ``x_res`` (as :meth:`ModalContact.ring`); ``q``, ``v`` are work arrays."""
     for k in range(q0.size):
         q[k] = q0[k]
         v[k] = v0[k]
     if s > 0.0:
-        ring_free(omega, sigma, q, v, s)
+        ring_free(p.omega, p.sigma, q, v, s)
     total = 0.0
     for k in range(q.size):
         total += q[k]
-    return total - x_res * math.exp(-rate * s)
+    return total - x_res * math.exp(-p.a * s)
 
 
 @compiled()
-def _touch_gap(
-    t, omega, sigma, q0, v0, x_res, rate, height, speed, gravity, q, v
-):  # pragma: no cover
+def _touch_gap(t, p, q0, v0, x_res, height, speed, gravity, q, v):  # pragma: no cover
     """The ball's height (m) over the ringing surface of :func:`_surface` at ``t`` (s)."""
     gap = height + speed * t - 0.5 * gravity * t * t
-    return gap - _surface(omega, sigma, q0, v0, x_res, rate, t, q, v)
+    return gap - _surface(p, q0, v0, x_res, t, q, v)
 
 
 @compiled()
-def first_touch(  # pragma: no cover
-    omega, sigma, q0, v0, x_res, rate, height, speed, gravity, dt, s0, end
-):
-    """The first time in ``[s0, end]`` (s) at which a ball at ``height`` (m) rising at
-    ``speed`` (m/s) under ``gravity`` (m/s^2) meets the surface ringing from the state (as
-    :func:`_surface`), or ``end``: the gap sampled every ``dt`` (s), the modes carried by
-    their transition matrices, the first sign change closed by :func:`illinois` on the
-    surface evaluated afresh, to double precision (the end where the gap is <= 0)."""
+def first_touch(p, q0, v0, x_res, height, speed, gravity, dt, s0, end):  # pragma: no cover
+    """First time in ``[s0, end]`` (s) at which a ball at ``height`` (m) rising at ``speed``
+    (m/s) under ``gravity`` (m/s^2) meets the ringing surface (:func:`_surface`), else ``end``:
+    the gap sampled every ``dt`` (s), the first sign change closed by :func:`illinois`."""
     n = q0.size
     q = np.empty(n)
     v = np.empty(n)
     if not end > s0:
         return s0
     # the state at s0, then the transition over one step
-    surface = _surface(omega, sigma, q0, v0, x_res, rate, s0, q, v)
+    surface = _surface(p, q0, v0, x_res, s0, q, v)
     P = np.empty((n, 4))
-    _transition_matrix(omega, sigma, dt, P)
-    tail = x_res * math.exp(-rate * s0)
-    tail_step = math.exp(-rate * dt)
+    _transition_matrix(p.omega, p.sigma, dt, P)
+    tail = x_res * math.exp(-p.a * s0)
+    tail_step = math.exp(-p.a * dt)
     gap0 = height + speed * s0 - 0.5 * gravity * s0 * s0 - surface
     if not gap0 > 0.0:
         return s0
@@ -506,10 +457,10 @@ def first_touch(  # pragma: no cover
             surface = total - tail
         else:
             s1 = end
-            surface = _surface(omega, sigma, q0, v0, x_res, rate, s1, q, v)
+            surface = _surface(p, q0, v0, x_res, s1, q, v)
         gap1 = height + speed * s1 - 0.5 * gravity * s1 * s1 - surface
         if gap1 <= 0.0:
-            args = (omega, sigma, q0, v0, x_res, rate, height, speed, gravity, q, v)
+            args = (p, q0, v0, x_res, height, speed, gravity, q, v)
             return illinois(_touch_gap, args, s0, s1, gap0, gap1, 0.0, 4e-16)
         s0 = s1
         gap0 = gap1
@@ -518,9 +469,8 @@ def first_touch(  # pragma: no cover
 
 @compiled()
 def hermite(u, h, gaps, rates, i):  # pragma: no cover
-    """The cubic Hermite interpolant of the penetrations ``gaps`` (m) and their rates
-    ``rates`` (m/s) at the fraction ``u`` of the steps ``i`` of length ``h`` (s): the
-    penetration (m), its rate (m/s) and its acceleration (m/s^2)."""
+    """Cubic Hermite interpolant of ``gaps`` (m) and ``rates`` (m/s) at the fraction ``u`` of
+    steps ``i`` of length ``h`` (s): penetration (m), rate (m/s) and acceleration (m/s^2)."""
     d0, d1 = gaps[i], gaps[i + 1]
     r0, r1 = rates[i] * h, rates[i + 1] * h
     u2, u3 = u * u, u * u * u
@@ -535,10 +485,9 @@ def hermite(u, h, gaps, rates, i):  # pragma: no cover
 
 @compiled()
 def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
-    """The sign of the lossy force ``K delta^(n-1) (delta + (mu delta + b) delta')`` before
-    its clip at 0 (Thornton's ``a + (mu a + b r) delta'`` with a yield ``dy``, m, after the
-    largest penetration ``dm``, m; -1 below the residual penetration) at the fraction ``u``
-    of step ``i`` of the :func:`hermite` interpolant."""
+    """Sign of the lossy force before its clip at 0 (with a yield ``dy``, m, after the largest
+    penetration ``dm``, m: -1 below the residual penetration) at the fraction ``u`` of step ``i``
+    of the :func:`hermite` interpolant."""
     d, rate, _ = hermite(u, h, gaps, rates, i)
     if d <= 0.0:
         return d
@@ -550,9 +499,8 @@ def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
 
 @compiled()
 def force_end(times, forces, gaps, rates, mu, b, dy):  # pragma: no cover
-    """The end of a lossy contact's force pulse (s from first touch), before the
-    penetration's: the last time :func:`_force_sign` falls to 0 between the steps ``times``
-    (s), to double precision."""
+    """End of a lossy contact's force pulse (s from first touch): the last zero of
+    :func:`_force_sign` between the steps ``times`` (s), to double precision."""
     last = times.size - 1
     i = last
     while i >= 0 and not forces[i] > 0.0:

@@ -1,11 +1,11 @@
-"""The plate as the modal contact sees it at one point (:mod:`synth.physics.modal_contact`):
-the band's modes and their couplings (cached on disk per point), the free plate's rigid-body
-coupling, and the residual (the infinite plate's modes above the band, lumped; its exact
-wavenumber integral)."""
+"""The plate as the modal contact sees it at one point: the band's modes and couplings
+(cached on disk per point), the free plate's rigid-body coupling, and the residual (the
+infinite plate's modes above the band, lumped)."""
 
 from __future__ import annotations
 
 import cmath
+import functools
 import json
 import math
 from dataclasses import dataclass, field
@@ -15,7 +15,8 @@ import numpy as np
 from synth import checks
 from synth.errors import ParameterError
 from synth.physics import impedance
-from synth.physics.scene import Plate
+from synth.physics.modal_contact.kernels import Oscillators
+from synth.physics.scene import Plate, check_type
 from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
 #: The residual's lumped modes above the band limit: this many geometric bins, each this
@@ -24,21 +25,15 @@ RESIDUAL_BINS = 12
 RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
 
 
-# --------------------------------------------------------------------------------------
-# The plate seen from one point
-# --------------------------------------------------------------------------------------
-
-
 @dataclass(frozen=True, eq=False)
 class ModalPoint:
-    """The finite plate as the contact sees it at one point (:mod:`synth.physics.modal_contact`):
-    ``plate``, ``position`` (m from a corner), ``max_frequency`` (the band limit, Hz) and
-    ``theory`` ("kirchhoff" or "mindlin", :func:`modal_point`); the band's modes ``omega``
-    (rad/s), ``sigma`` (1/s) and ``coupling`` ``c_k = phi_k(x0)^2 / M_k`` (1/kg);
-    ``rigid_coupling`` (1/kg, 0 unless free); the residual's lumped modes ``residual_omega``
-    (rad/s), ``residual_sigma`` (1/s), ``residual_coupling`` (1/kg) and its tail,
-    ``residual_admittance`` ``beta_W`` (the infinite plate's ``Re Y`` at the top ``W`` of the
-    lumped modes, m/(N s)) and ``residual_rate`` ``a = pi W / 2`` (1/s)."""
+    """The finite plate seen from ``position`` (m from a corner) up to ``max_frequency`` (Hz)
+    in ``theory`` ("kirchhoff" or "mindlin"): the band's modes ``omega`` (rad/s), ``sigma``
+    (1/s), couplings ``c_k = phi_k(x0)^2 / M_k`` (1/kg); ``rigid_coupling`` (1/kg, 0 unless
+    free); the residual's lumped modes (``residual_omega``, ``residual_sigma``,
+    ``residual_coupling``) and tail, ``residual_admittance`` ``beta_W`` (the infinite plate's
+    ``Re Y`` at the top ``W`` of the lumped modes, m/(N s)) and ``residual_rate`` ``a = pi W / 2``
+    (1/s)."""
 
     plate: Plate
     position: tuple[float, float]
@@ -56,17 +51,24 @@ class ModalPoint:
 
     @property
     def contact_modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Angular frequencies (rad/s), decay rates (1/s) and couplings (1/kg) of every
-        oscillator the contact drives: the band's modes, then the residual's lumped ones."""
+        """``omega`` (rad/s), ``sigma`` (1/s) and couplings (1/kg) of the band's modes, then the
+        residual's lumped ones."""
         return (
             np.concatenate((self.omega, self.residual_omega)),
             np.concatenate((self.sigma, self.residual_sigma)),
             np.concatenate((self.coupling, self.residual_coupling)),
         )
 
+    @functools.cached_property
+    def oscillators(self) -> Oscillators:
+        """:attr:`contact_modes`, rigid body and residual tail as the kernels take them."""
+        return Oscillators(
+            *self.contact_modes, float(self.rigid_coupling), float(self.residual_admittance),
+            float(self.residual_rate),
+        )  # fmt: skip
+
     def residual(self, frequency) -> np.ndarray:
-        """The residual's admittance (m/(N s), complex, as :meth:`admittance`) at
-        ``frequency`` (Hz, > 0): the lumped modes above the band and the tail."""
+        """The residual's admittance (m/(N s), as :meth:`admittance`) at ``frequency`` (Hz)."""
         s = 2j * np.pi * np.asarray(frequency, dtype=float)[..., None]
         w, sg, c = self.residual_omega, self.residual_sigma, self.residual_coupling
         lumped = (s * c / (s * s + 2.0 * sg * s + w**2)).sum(axis=-1)
@@ -74,8 +76,8 @@ class ModalPoint:
         return lumped + self.residual_admittance * s1 / (s1 + self.residual_rate)
 
     def admittance(self, frequency) -> np.ndarray:
-        """Driving-point admittance ``Y = v / F`` (m/(N s), complex, ``e^(i omega t)``
-        convention, force and velocity both positive downward) at ``frequency`` (Hz, > 0)."""
+        """Driving-point admittance ``Y = v / F`` (m/(N s), ``e^(i omega t)``, force and velocity
+        downward) at ``frequency`` (Hz, > 0)."""
         f = np.atleast_1d(np.asarray(frequency, dtype=float))
         if not np.all(np.isfinite(f) & (f > 0.0)):
             raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
@@ -85,11 +87,9 @@ class ModalPoint:
         return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
 
     def band_impedance(self, low: float, high: float) -> float:
-        """Driving-point impedance ``1 / <Re Y>`` (N s/m), with ``Re Y`` averaged over the band
-        ``[low, high]`` (Hz): the quantity an impact hammer's band-averaged measurement
-        gives, and for the infinite plate ``Z_inf`` (each mode adds ``pi c_k / 2`` to the
-        integral of ``Re Y`` over angular frequency; the average is taken of the modes in
-        the band, plus the residual's share)."""
+        """``1 / <Re Y>`` (N s/m), ``Re Y`` averaged over ``[low, high]`` (Hz): an impact hammer's
+        band-averaged measurement, ``Z_inf`` for the infinite plate (each mode adds ``pi c_k / 2``
+        to the integral of ``Re Y`` over angular frequency)."""
         lo = checks.nonnegative("low", low, "Hz")
         hi = checks.positive("high", high, "Hz")
         if not hi > lo:
@@ -111,11 +111,9 @@ class ModalPoint:
 
 
 def _lumped_real_integral(omega, sigma, coupling, w_lo: float, w_hi: float) -> float:
-    """``Int Re Y d omega`` (m/(N s) rad/s) over ``[w_lo, w_hi]`` (rad/s) of the damped
-    oscillators ``Y = c s / (s^2 + 2 sigma s + omega^2)`` (``sigma > 0``): by partial
-    fractions ``Y = r / (s - p) + conj(r) / (s - conj(p))``, ``r = c p / (p - conj(p))``,
-    and ``Int r / (i w - p) d w = -i r log(i w - p)`` (``Re(i w - p) = sigma > 0``: no
-    branch cut is crossed)."""
+    """``Int Re Y d omega`` over ``[w_lo, w_hi]`` (rad/s) of the oscillators ``Y = c s / (s^2 + 2
+    sigma s + omega^2)``: partial fractions ``r / (s - p) + conj``, ``r = c p / (p - conj(p))``,
+    ``Int r / (i w - p) d w = -i r log(i w - p)`` (no branch cut crossed for ``sigma > 0``)."""
     total = 0.0
     for w0, sg, c in zip(omega, sigma, coupling, strict=True):
         p = complex(-sg, math.sqrt(w0 * w0 - sg * sg))
@@ -137,22 +135,16 @@ def modal_point(
     max_frequency: float,
     theory: str = "kirchhoff",
 ) -> ModalPoint:
-    """The plate at ``position`` (m from a corner) with its bending modes up to
-    ``max_frequency`` (Hz) and the residual above (:mod:`synth.physics.modal_contact`).
-
-    ``theory`` "mindlin" (docs/physics.md, "Thick plates"): each thin-plate mode keeps its
-    shape and wavenumber and takes Mindlin's frequency
-    (:func:`synth.physics.impedance.mindlin_angular_frequency`) and modal mass
-    (:func:`synth.physics.impedance.mindlin_mass_factor`), the residual the infinite Mindlin
-    plate's admittance, so the band-averaged ``Re Y`` is the infinite Mindlin plate's. The
-    modes are an eigen-solution of exactly this band (:func:`band_modes`), never a wider
-    cached one's (a series of bounces amplifies their last digits), kept on disk per point."""
-    if not isinstance(plate, Plate):
-        raise ParameterError(f"plate={plate!r} must be a Plate")
+    """The plate at ``position`` (m from a corner) with its bending modes up to ``max_frequency``
+    (Hz) and the residual above. ``theory`` "mindlin" (docs/physics.md, "Thick plates"): each
+    thin-plate mode keeps its shape and wavenumber and takes Mindlin's frequency and modal mass
+    (:func:`synth.physics.impedance.mindlin_angular_frequency`, ``mindlin_mass_factor``), the
+    residual the infinite Mindlin plate's. The modes solve exactly this band
+    (:func:`band_modes`: a bounce series amplifies their last digits)."""
+    check_type("plate", plate, Plate)
     x, y = plate.check_position(position, "position")
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
-    if theory not in PLATE_THEORIES:
-        raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
+    checks.choice("theory", theory, PLATE_THEORIES)
     omega_band = 2.0 * math.pi * fmax
     if theory == "mindlin":
         s_band = impedance.mindlin_wavenumbers(plate, omega_band)[0]
@@ -171,12 +163,10 @@ def modal_point(
     # modes with a node at the point take no part in the contact
     keep = coupling > 1e-12 * coupling.max(initial=0.0)
     omega, sigma, coupling = omega[keep], sigma[keep], coupling[keep]
-    if plate.boundary == "free":
-        xi = 2.0 * x / plate.length - 1.0
-        eta = 2.0 * y / plate.width - 1.0
-        rigid = (1.0 + 3.0 * xi * xi + 3.0 * eta * eta) / plate.mass
-    else:
-        rigid = 0.0
+    xi, eta = 2.0 * x / plate.length - 1.0, 2.0 * y / plate.width - 1.0
+    rigid = (
+        (1.0 + 3.0 * xi * xi + 3.0 * eta * eta) / plate.mass if plate.boundary == "free" else 0.0
+    )
     return ModalPoint(
         plate, (x, y), fmax, omega, sigma, coupling, rigid, lumped.tail_admittance,
         lumped.tail_rate, theory, lumped.omega, lumped_sigma, lumped.coupling,
@@ -184,15 +174,13 @@ def modal_point(
 
 
 def _band_edge_loss(plate: Plate, omega_band: float, fmax: float) -> float:
-    """``sigma / omega`` (dimensionless) of the plate's damping law at the band limit
-    ``omega_band`` (rad/s): the residual's lumped modes keep it above the band (a damping
-    law fitted in the audio band is not extrapolated to the residual's frequencies)."""
+    """``sigma / omega`` of the damping law at ``omega_band`` (rad/s), kept by the residual's
+    lumped modes (a damping law of the audio band is not extrapolated above it)."""
     return float(_decay_rates(plate, np.array([omega_band]), fmax)[0]) / omega_band
 
 
 def _decay_rates(plate: Plate, omega: np.ndarray, fmax: float) -> np.ndarray:
-    """The plate's damping law's decay rates (1/s) at ``omega`` (rad/s), checked
-    underdamped (the modal contact's oscillators must be)."""
+    """The damping law's decay rates (1/s) at ``omega`` (rad/s), checked underdamped."""
     sigma = np.broadcast_to(
         np.asarray(plate.damping_law().decay_rate(omega), dtype=float), omega.shape
     ).copy()
@@ -206,22 +194,16 @@ def _decay_rates(plate: Plate, omega: np.ndarray, fmax: float) -> np.ndarray:
     return sigma
 
 
-# --------------------------------------------------------------------------------------
-# The residual: the infinite plate's modes above the band
-# --------------------------------------------------------------------------------------
-
-
 def _mode_frequency(plate: Plate, s, theory: str):
-    """Angular frequency (rad/s) of the plate's bending wave of ``k^2 = s`` (rad^2/m^2)."""
+    """Angular frequency (rad/s) of the bending wave of ``k^2 = s`` (rad^2/m^2)."""
     if theory == "mindlin":
         return impedance.mindlin_angular_frequency(plate, s)
     return np.asarray(s, dtype=float) * math.sqrt(plate.flexural_rigidity / plate.surface_density)
 
 
 def _coupling_density(plate: Plate, s, theory: str):
-    """``dmu / ds`` (1/kg per rad^2/m^2): the couplings of the infinite plate's modes per
-    unit ``s = k^2``, ``1 / (4 pi rho h m_f(s))`` (``S / (4 pi)`` modes per unit ``s``, each
-    of coupling ``1 / (rho h S m_f)``, ``m_f`` :func:`impedance.mindlin_mass_factor`)."""
+    """``dmu / ds`` (1/kg per rad^2/m^2): the infinite plate's couplings per unit ``s = k^2``,
+    ``1 / (4 pi rho h m_f(s))`` (:func:`impedance.mindlin_mass_factor`, 1 for Kirchhoff)."""
     base = 1.0 / (4.0 * math.pi * plate.surface_density)
     if theory != "mindlin":
         return base * np.ones_like(np.asarray(s, dtype=float))
@@ -246,24 +228,23 @@ class _LumpedResidual:
 
 
 def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedResidual:
-    """The residual above ``omega_band`` (rad/s) as :data:`RESIDUAL_BINS` lumped modes and a
-    tail (the package's docstring): bin ``j`` spans ``[Omega r^j, Omega r^(j+1)]``; its coupling
-    ``c_j = Int dmu`` and frequency ``w_j`` with ``c_j / w_j^2 = Int dmu / w^2`` keep the
-    bin's stiffness (its response below the band) and its mass (above it)."""
+    """The residual above ``omega_band`` (rad/s): :data:`RESIDUAL_BINS` lumped modes, bin ``j``
+    over ``[Omega r^j, Omega r^(j+1)]`` with ``c_j = Int dmu`` and ``c_j / w_j^2 = Int dmu / w^2``
+    (its stiffness below the band and its mass above), and a one-pole tail."""
     from scipy.integrate import quad
 
     edges = omega_band * RESIDUAL_RATIO ** np.arange(RESIDUAL_BINS + 1)
     s = [_wavenumber_at(plate, float(w), theory) for w in edges]
     omega, coupling = [], []
+
+    def density(x):  # dmu / ds
+        return float(_coupling_density(plate, x, theory))
+
+    def compliance(x):  # dmu / ds / omega^2
+        return density(x) / float(_mode_frequency(plate, x, theory)) ** 2
+
     for lo, hi in zip(s[:-1], s[1:], strict=True):
-        c = quad(lambda x: float(_coupling_density(plate, x, theory)), lo, hi)[0]
-        k = quad(
-            lambda x: float(
-                _coupling_density(plate, x, theory) / _mode_frequency(plate, x, theory) ** 2
-            ),
-            lo,
-            hi,
-        )[0]
+        c, k = quad(density, lo, hi)[0], quad(compliance, lo, hi)[0]
         omega.append(math.sqrt(c / k))
         coupling.append(c)
     top = float(edges[-1])
@@ -274,43 +255,30 @@ def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedRes
     return _LumpedResidual(np.array(omega), np.array(coupling), tail, 0.5 * math.pi * top)
 
 
-# Eigen-solutions of exactly the contact's bands, held in memory (a few plates), and each
-# point's modes on disk. The disk key holds everything the modes depend on: the plate, the
-# band, the point and the solver that gives the modes (synth.physics.modes.solver_key: its
-# method, version, settings and numerical libraries). _POINT_VERSION changes with how a
-# point's modes are taken from the solution, and with any change of the solver's bytes that
-# its key does not name (the number of BLAS threads a solve runs on, for one): no entry of
-# another revision is served, and a bounce series, which amplifies the modes' last bits, is
-# the same in any cache.
+# Eigen-solutions of exactly the contact's bands in memory, each point's modes on disk, keyed
+# by plate, band, point and the solver's identity (synth.physics.modes.solver_key);
+# _POINT_VERSION changes with anything else that moves their bits (how a point's modes are
+# taken, BLAS threads): a bounce series, which amplifies last bits, is the same in any cache.
 _BAND_MODES = MemoryCache("solves", max_entries=8)
 _POINT_VERSION = 2
 
 
 def clear_memory_cache() -> None:
-    """Forget the eigen-solutions held by :func:`band_modes` (the disk cache is untouched)."""
+    """Forget the eigen-solutions held by :func:`band_modes` (not the disk cache)."""
     _BAND_MODES.clear()
 
 
 def _plate_key(plate: Plate, max_frequency: float) -> dict:
     """What the bending modes of ``plate`` to ``max_frequency`` (Hz) depend on."""
     m = plate.material
-    return {
-        "boundary": plate.boundary,
-        "young": float(m.young).hex(),
-        "density": float(m.density).hex(),
-        "poisson": float(m.poisson).hex(),
-        "thickness": float(plate.thickness).hex(),
-        "length": float(plate.length).hex(),
-        "width": float(plate.width).hex(),
-        "max_frequency": float(max_frequency).hex(),
-    }
+    values = dict(young=m.young, density=m.density, poisson=m.poisson, thickness=plate.thickness,
+                  length=plate.length, width=plate.width, max_frequency=max_frequency)  # fmt: skip
+    return {"boundary": plate.boundary, **{k: float(v).hex() for k, v in values.items()}}
 
 
 def band_modes(plate: Plate, max_frequency: float):
     """The bending modes of ``plate`` up to ``max_frequency`` (Hz) from an eigen-solution of
-    exactly that band: the mode cache's if it holds that band, else a solve of the band
-    alone (:func:`synth.physics.modes.modes` with ``cache=False``) where the cache would serve
-    a wider band's. Held in memory for the next contact on the plate."""
+    exactly that band (the mode cache's, else a solve without the cache), held in memory."""
     from synth.physics.modes import modes as plate_modes
 
     key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)
@@ -324,8 +292,8 @@ def band_modes(plate: Plate, max_frequency: float):
 
 
 def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
-    """Angular frequencies (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of the modes of
-    :func:`band_modes` at ``position``: from the disk cache, or computed and stored."""
+    """``omega`` (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of :func:`band_modes` at
+    ``position``: from the disk cache, or computed and stored."""
     key = _point_key(plate, position, max_frequency)
     try:
         path = cache_path("contact-point-modes", key)
@@ -344,8 +312,7 @@ def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarr
 
 
 def _point_key(plate: Plate, position, max_frequency: float) -> str:
-    """The disk key of the modes of ``plate`` to ``max_frequency`` (Hz) at ``position`` (m):
-    every input and the solver's identity (the comment above :data:`_BAND_MODES`)."""
+    """The disk key of the modes at ``position`` (m): every input and the solver's identity."""
     from synth.physics.modes import solver_key
 
     return json.dumps(
@@ -361,8 +328,7 @@ def _point_key(plate: Plate, position, max_frequency: float) -> str:
 
 
 def _load_point(path, key: str):
-    """The stored ``(omega, coupling)`` of ``key`` at ``path``, or None if absent or not
-    consistent (then recomputed)."""
+    """The stored ``(omega, coupling)`` of ``key`` at ``path``; None if absent or inconsistent."""
     if path is None or not path.is_file():
         return None
     try:

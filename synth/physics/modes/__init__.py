@@ -1,16 +1,13 @@
 """The finite rectangular plate's bending modes (docs/physics.md, "Plate modes").
 
-:func:`modes` returns every bending mode of a :class:`~synth.physics.scene.Plate` up to a
-frequency (frequencies, damping, modal masses, shapes), combined by the synthesis as
-``v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k * (h_k * F)(t)``, in thin-plate (Kirchhoff)
-theory. Simply supported edges: the closed form (:mod:`~.closed_form`); free and clamped:
-Rayleigh-Ritz (:mod:`~.ritz`, :mod:`~.basis`), cached (:mod:`~.cache`), crossing over to
-dynamic edge effect modes above a low band (:mod:`~.crossover`). Every shape has mean
-square 1 (``Int phi_k^2 dA = a b``), so ``M_k = rho h a b``; a shape's sign is arbitrary.
+:func:`modes` gives every bending mode of a :class:`~synth.physics.scene.Plate` up to a
+frequency (Kirchhoff theory): simply supported edges by the closed form (:mod:`~.closed_form`),
+free and clamped by Rayleigh-Ritz (:mod:`~.ritz`, :mod:`~.basis`), cached (:mod:`~.cache`),
+crossing over to dynamic edge effect modes above a low band (:mod:`~.crossover`). Shapes have
+mean square 1 (``M_k = rho h a b``); a shape's sign is arbitrary.
 
 References: A. W. Leissa, *Vibration of Plates*, NASA SP-160 (1969), chapter 4; A. W.
-Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973) 257-293.
-"""
+Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973) 257-293."""
 
 from __future__ import annotations
 
@@ -36,7 +33,7 @@ from synth.physics.modes.ritz import (
     RitzSolution,
     SummedShapes,
     TooLarge,
-    first_basis_sizes,
+    first_basis,
     ritz_unknowns,
 )
 from synth.physics.scene import Plate, check_type
@@ -59,19 +56,18 @@ __all__ = [
 
 @dataclass(frozen=True)
 class EdgeEffectPart:
-    """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes ``offset, offset +
-    1, ...`` of ``solution`` (:class:`synth.physics.asymptotic_modes.EdgeEffectSolution`); those
-    before ``first_mode`` are Rayleigh-Ritz modes."""
+    """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes ``offset, ...`` of
+    the edge effect ``solution``; those before ``first_mode`` are Rayleigh-Ritz modes."""
 
     first_mode: int
     solution: object
     offset: int
 
     def product_factors(self, x, y, length: float, width: float, index):
-        """Modes ``index`` (ascending, each ``>= first_mode``) of a plate ``length`` x ``width``
-        (m) as tables of their factors at the distinct coordinates ``x`` and ``y`` (m):
-        ``(x_own, y_own, x_other, y_other)``, mode ``index[k]`` at ``(x[a], y[b])`` being
-        ``x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``."""
+        """Modes ``index`` (ascending, ``>= first_mode``) of a ``length`` x ``width`` (m) plate as
+        tables of factors at the distinct ``x``, ``y`` (m): ``(x_own, y_own, x_other, y_other)``,
+        mode ``index[k]`` at ``(x[a], y[b])`` being ``x_own[a, k] y_own[b, k] + x_other[a, k]
+        y_other[b, k]``."""
         xi = np.clip(2.0 * np.asarray(x, dtype=float) / length - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * np.asarray(y, dtype=float) / width - 1.0, -1.0, 1.0)
         own = np.asarray(index, dtype=np.int64) - self.first_mode + self.offset
@@ -80,11 +76,10 @@ class EdgeEffectPart:
 
 @dataclass(frozen=True, eq=False)
 class Modes:
-    """The bending modes of ``plate`` at or below ``max_frequency`` (Hz), arrays read-only:
-    ``frequencies`` ``f_k`` (Hz, ascending; a free plate's rigid-body motions excluded),
-    ``angular_frequencies`` (rad/s), ``decay_rates`` ``sigma_k`` (1/s, the material's damping),
-    ``modal_masses`` ``M_k = rho h a b`` (kg; shapes of mean square 1), and ``tolerance``, the
-    relative accuracy of every frequency (0 for the closed form)."""
+    """The bending modes of ``plate`` up to ``max_frequency`` (Hz), arrays read-only:
+    ``frequencies`` (Hz, ascending; no rigid-body motion), ``angular_frequencies`` (rad/s),
+    ``decay_rates`` (1/s), ``modal_masses`` ``rho h a b`` (kg), and ``tolerance``, every
+    frequency's relative accuracy (0 for the closed form)."""
 
     plate: Plate
     max_frequency: float
@@ -100,20 +95,14 @@ class Modes:
 
     @property
     def shape_key(self) -> str:
-        """Text identifying :meth:`shapes` exactly, for caches of results computed from them:
-        the plate's size, the mode count, the eigen-solution and the numerical libraries
-        (:func:`~synth.physics.modes.common.numerics_key`), not what only scales frequencies."""
+        """Text identifying :meth:`shapes` exactly (plate size, mode count, solution, numerical
+        libraries), for caches of results computed from them."""
         p = self.plate
         return json.dumps(
-            {
-                "solution": self._solution.key,
-                "length": float(p.length).hex(),
-                "width": float(p.width).hex(),
-                "modes": len(self),
-                "numerics": numerics_key(),
-            },
+            {"solution": self._solution.key, "length": float(p.length).hex(),
+             "width": float(p.width).hex(), "modes": len(self), "numerics": numerics_key()},
             sort_keys=True,
-        )
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         p = self.plate
@@ -126,8 +115,8 @@ class Modes:
 
     @property
     def solved_for_band(self) -> bool:
-        """True when the eigen-solution was solved for exactly ``max_frequency``, so that a
-        result (the modal contact's) does not depend on the cache's history."""
+        """True when the eigen-solution is of exactly ``max_frequency``, so that a result (the
+        modal contact's) does not depend on the cache's history."""
         sol = self._solution
         if isinstance(sol, SimplySupported):
             return True
@@ -144,17 +133,12 @@ class Modes:
         p = self.plate
         m_idx = np.asarray(sol.m[:n], dtype=np.int64) - 1
         n_idx = np.asarray(sol.n[:n], dtype=np.int64) - 1
-        k = math.pi * max(
-            (int(m_idx.max()) + 1) / p.length if n else 0.0,
-            (int(n_idx.max()) + 1) / p.width if n else 0.0,
-        )
+        k = math.pi * max((m_idx.max() + 1) / p.length, (n_idx.max() + 1) / p.width) if n else 0.0
         return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
     def shapes(self, points, index=None) -> np.ndarray:
-        """Mode shapes ``phi_k`` (dimensionless, mean square 1) at ``points`` (n, 2), ``(x, y)`` in
-        metres from the plate's corner, one column per mode in the order of :attr:`frequencies`,
-        or of ``index`` (ascending distinct mode numbers) if given. ``ParameterError`` for points
-        not an (n, 2) array of finite numbers, off the plate, or a bad ``index``."""
+        """Mode shapes ``phi_k`` (mean square 1) at ``points`` (n, 2) ``(x, y)`` in metres from the
+        corner, a column per mode, or per mode of ``index`` (ascending distinct mode numbers)."""
         if index is not None:
             index = np.asarray(index)
             if (
@@ -203,8 +187,7 @@ class Modes:
         return EdgeEffectPart(sol.n_low, sol.edge, sol.first)
 
     def summed(self) -> SummedShapes | None:
-        """The shapes as sums of products ``sum_ij C_kij X_i(x) Y_j(y)`` (:class:`SummedShapes`:
-        free and clamped plates), or None."""
+        """The shapes as sums ``sum_ij C_kij X_i(x) Y_j(y)`` (free and clamped plates), or None."""
         sol = self._solution
         if not isinstance(sol, RitzSolution):
             return None
@@ -215,19 +198,18 @@ class Modes:
 
 
 def frequency_scale(plate: Plate) -> float:
-    """``omega / Omega`` (rad/s): ``Omega = omega L^2 sqrt(rho h / D)`` is dimensionless,
-    ``L = max(a, b)``."""
+    """``omega / Omega`` (rad/s), ``Omega = omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``."""
     length = max(plate.length, plate.width)
     return math.sqrt(plate.flexural_rigidity / plate.surface_density) / length**2
 
 
 def dimensionless_band(plate: Plate, max_frequency: float) -> float:
-    """The band ``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
+    """``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
     return 2.0 * math.pi * max_frequency / frequency_scale(plate)
 
 
 def ritz_band(plate: Plate, max_frequency: float) -> float:
-    """The dimensionless band of the Ritz problems :func:`modes` solves up to ``max_frequency``
+    """The dimensionless band of the Ritz problem :func:`modes` solves up to ``max_frequency``
     (Hz): the whole band, or beyond the crossover its low band."""
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
@@ -239,9 +221,8 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 
 
 def solver_key(plate: Plate, max_frequency: float) -> str:
-    """Text identifying the eigen-solution :func:`modes` gives ``plate`` up to ``max_frequency``
-    (Hz), known before any solve (method, settings, bands, numerical libraries), keying caches
-    of results computed from the modes so that another revision of the solver is not served."""
+    """Text identifying the eigen-solution of ``plate`` up to ``max_frequency`` (Hz) before any
+    solve (method, settings, bands, libraries): the key of caches of results from the modes."""
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
 
@@ -260,38 +241,33 @@ def solver_key(plate: Plate, max_frequency: float) -> str:
 
 
 def shape_terms(plate: Plate, max_frequency: float) -> int:
-    """Terms of the sum one shape value costs per mode on a grid, known before any solve: 1
-    for a simply supported plate, else the Ritz basis' degrees along one axis (for
-    :mod:`synth.cost`)."""
-    from synth.physics.modes.ritz import first_basis_degrees
-
-    if plate.boundary == "simply-supported":
-        return 1
-    return first_basis_degrees(plate.length / plate.width, ritz_band(plate, max_frequency))
+    """Terms of a shape value per mode on a grid before any solve (for :mod:`synth.cost`): 1
+    for a simply supported plate, else the first Ritz basis' degrees along one axis."""
+    return 1 if plate.boundary == "simply-supported" else _first_basis(plate, max_frequency)[0]
 
 
 def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
-    """Factors ``(n_x, n_y)`` of the first Ritz basis' shapes up to ``max_frequency`` (Hz) as sums
-    of products, known before any solve (for :mod:`synth.cost`)."""
-    from synth.physics.modes.ritz import first_basis_factors
-
-    return first_basis_factors(plate.length / plate.width, ritz_band(plate, max_frequency))
+    """Factors ``(n_x, n_y)`` of the first Ritz basis up to ``max_frequency`` (Hz)."""
+    return _first_basis(plate, max_frequency)[1]
 
 
 def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
-    """Unknowns of each symmetry class's main and check bases of the first Ritz basis
-    :func:`modes` tries up to ``max_frequency`` (Hz); none for a simply supported plate."""
+    """Unknowns of each symmetry class's main and check bases of the first Ritz basis up to
+    ``max_frequency`` (Hz); none for a simply supported plate."""
     if plate.boundary == "simply-supported":
         return [], []
-    return first_basis_sizes(plate.length / plate.width, ritz_band(plate, max_frequency))
+    return _first_basis(plate, max_frequency)[2]
+
+
+def _first_basis(plate: Plate, max_frequency: float):
+    return first_basis(plate.length / plate.width, ritz_band(plate, max_frequency))
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
-    """Every bending mode of ``plate`` at or below ``max_frequency`` (Hz, > 0), each frequency
-    accurate to :data:`TOLERANCE` relative (:data:`EDGE_EFFECT_TOLERANCE` beyond the crossover
-    of :mod:`synth.physics.modes.crossover`, whose modes cost linearly instead of the Ritz
-    cube). ``cache``: reuse and store the eigen-solution (:mod:`synth.physics.modes.cache`).
-    ``ParameterError`` for a band of more than two million modes."""
+    """Every bending mode of ``plate`` up to ``max_frequency`` (Hz, > 0), each frequency to
+    :data:`TOLERANCE` relative (:data:`EDGE_EFFECT_TOLERANCE` beyond the crossover, whose modes
+    cost linearly). ``cache``: reuse and store the eigen-solution. ``ParameterError`` for a band
+    of more than two million modes."""
     check_type("plate", plate, Plate)
     damping = plate.damping_law()
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
@@ -325,13 +301,4 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     mass = np.full(n, plate.mass)
     for arr in (omega, freq, sigma, mass):
         arr.setflags(write=False)
-    return Modes(
-        plate=plate,
-        max_frequency=fmax,
-        frequencies=freq,
-        angular_frequencies=omega,
-        decay_rates=sigma,
-        modal_masses=mass,
-        tolerance=tol,
-        _solution=sol,
-    )
+    return Modes(plate, fmax, freq, omega, sigma, mass, tol, sol)

@@ -1,14 +1,9 @@
-"""The Rayleigh-Ritz basis of the free and clamped plates, its size, and the eigen-solution
-of one symmetry class (docs/physics.md, "Plate modes").
-
-A tensor product of functions orthonormal on ``[-1, 1]`` in ``xi = 2x/a - 1``, ``eta = 2y/b
-- 1``: Legendre polynomials (free) or ``(1 - xi^2)^2 p_n^(4,4)(xi)`` (clamped), so the mass
-matrix is the identity and the stiffness exact by Gauss-Legendre; parity gives four
-classes. The solver takes the largest eigenvalues of ``(K + s I)^-1`` (Cholesky, LAPACK
-``potri``), keeping the low modes' relative accuracy. The basis keeps the degree pairs a
-wavenumber ``k_x^2 + k_y^2 <= k_max^2`` needs, ``g(kappa) = kappa + 3 kappa^(1/3) + 2`` per
-axis (the beam's spectral convergence).
-"""
+"""The Rayleigh-Ritz basis of the free and clamped plates and one symmetry class's
+eigen-solution (docs/physics.md, "Plate modes"): tensor products of functions orthonormal on
+``[-1, 1]`` in ``xi = 2x/a - 1``, ``eta = 2y/b - 1``, Legendre polynomials (free) or ``(1 -
+xi^2)^2 p_n^(4,4)(xi)`` (clamped), so the mass matrix is the identity and the stiffness exact
+by Gauss-Legendre; parity gives four classes. The basis keeps the degree pairs a wavenumber
+``k_x^2 + k_y^2 <= k_max^2`` needs, ``g(kappa) = kappa + 3 kappa^(1/3) + 2`` per axis."""
 
 from __future__ import annotations
 
@@ -34,9 +29,8 @@ def basis_alpha(boundary: str) -> int:
 @compiled()
 def _recurrence(x, a, p0, out):  # pragma: no cover
     """``out[d, i, m] = d^d p_m / dxi^d`` at ``x[i]`` of the orthonormal symmetric Jacobi
-    polynomials: ``p_(m+1) = (xi p_m - a_m p_(m-1)) / a_(m+1)`` and its derivatives
-    ``p_(m+1)^(d) = (d p_m^(d-1) + xi p_m^(d) - a_m p_(m-1)^(d)) / a_(m+1)`` (``a`` as in
-    :func:`basis_1d`), term by term in that order."""
+    polynomials: ``p_(m+1) = (xi p_m - a_m p_(m-1)) / a_(m+1)`` and ``p_(m+1)^(d) = (d
+    p_m^(d-1) + xi p_m^(d) - a_m p_(m-1)^(d)) / a_(m+1)``."""
     nd, nx, n = out.shape
     if n == 0:
         return
@@ -56,17 +50,15 @@ def _recurrence(x, a, p0, out):  # pragma: no cover
 
 
 def _log_factorial(k: int) -> float:
-    """``ln k! = ln Gamma(k + 1)`` of a small integer ``k``: the logarithm of the exact
-    product, as ``scipy.special.gammaln`` takes it below 13 (Cephes' ``lgam``), without
-    importing scipy.special for a render."""
+    """``ln k!`` of a small integer by the exact product (as ``scipy.special.gammaln`` below
+    13), without importing scipy.special for a render."""
     return math.log(math.factorial(k))
 
 
 def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndarray:
-    """Basis functions ``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1], (derivatives +
-    1, len(x), n): the orthonormal Jacobi polynomials of ``xi p_m = a_(m+1) p_(m+1) + a_m
-    p_(m-1)``, ``a_m^2 = m (m + 2 alpha) / ((2m + 2 alpha + 1)(2m + 2 alpha - 1))``
-    (:func:`_recurrence`), times ``(1 - xi^2)^2`` for ``alpha = 4``."""
+    """``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1], (derivatives + 1, len(x), n):
+    orthonormal Jacobi polynomials, ``a_m^2 = m (m + 2 alpha) / ((2m + 2 alpha + 1)(2m + 2 alpha
+    - 1))``, times ``(1 - xi^2)^2`` for ``alpha = 4``."""
     x = np.ascontiguousarray(x, dtype=float).ravel()
     p = np.empty((derivatives + 1, x.size, n))
     mu0 = math.exp(
@@ -94,7 +86,7 @@ def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndar
 
 def matrices_1d(alpha: int, n: int):
     """``(A11, A22, A20)``: ``Int psi_i' psi_k'``, ``Int psi_i'' psi_k''``, ``Int psi_i'' psi_k``
-    over [-1, 1] for the first ``n`` functions, exact by Gauss-Legendre with ``n + 6`` nodes."""
+    over [-1, 1], exact by Gauss-Legendre with ``n + 6`` nodes."""
     from scipy.special import roots_legendre
 
     xq, wq = roots_legendre(n + 6)
@@ -107,11 +99,8 @@ def matrices_1d(alpha: int, n: int):
 
 
 def _degree_wavenumber(i: np.ndarray, c0: float, c1: float) -> np.ndarray:
-    """Inverse of ``g(kappa) = kappa + c1 kappa^(1/3) + c0``: the largest wavenumber
-    (per unit of xi) that needs a degree ``i``; 0 for ``i <= c0``.
-
-    With ``t = kappa^(1/3)``: ``t^3 + c1 t - (i - c0) = 0``, one real root (Cardano).
-    """
+    """Inverse of ``g(kappa) = kappa + c1 kappa^(1/3) + c0`` (Cardano, ``t = kappa^(1/3)``): the
+    largest wavenumber per unit of xi needing degree ``i``; 0 for ``i <= c0``."""
     q = -(np.asarray(i, dtype=float) - c0)
     r = np.sqrt(q * q / 4.0 + c1**3 / 27.0)
     t = np.cbrt(-q / 2.0 + r) + np.cbrt(-q / 2.0 - r)
@@ -119,8 +108,8 @@ def _degree_wavenumber(i: np.ndarray, c0: float, c1: float) -> np.ndarray:
 
 
 def index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
-    """Degree pairs ``(i, j)`` of parity ``(px, py)`` kept for wavenumbers up to
-    ``(kx, ky)`` (per unit of xi, eta): ``(g^-1(i)/kx)^2 + (g^-1(j)/ky)^2 <= 1``."""
+    """Degree pairs ``(i, j)`` of parity ``(px, py)`` for wavenumbers up to ``(kx, ky)``:
+    ``(g^-1(i)/kx)^2 + (g^-1(j)/ky)^2 <= 1``."""
     nx = int(math.floor(kx + c1 * kx ** (1.0 / 3.0) + c0)) + 1
     ny = int(math.floor(ky + c1 * ky ** (1.0 / 3.0) + c0)) + 1
     i = np.arange(px, nx + 1, 2)
@@ -134,12 +123,9 @@ def index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
 
 @compiled(nogil=True)
 def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # noqa: PLR0913  # pragma: no cover
-    """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle).
-
-    ``K[p, q] = 16 [rx^4 A22[i,k] d_jl + ry^4 d_ik B22[j,l]
-    + nu rx^2 ry^2 (A20[i,k] B20[l,j] + A20[k,i] B20[j,l]) + 2 (1-nu) rx^2 ry^2 A11[i,k] B11[j,l]]``
-    for ``p = (i, j)``, ``q = (k, l)``; see :func:`_stiffness`.
-    """
+    """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle):
+    ``K[p, q] = 16 [rx^4 A22[i,k] d_jl + ry^4 d_ik B22[j,l] + nu rx^2 ry^2 (A20[i,k] B20[l,j] +
+    A20[k,i] B20[j,l]) + 2 (1-nu) rx^2 ry^2 A11[i,k] B11[j,l]]``, ``p = (i, j)``, ``q = (k, l)``."""
     n = I.size
     k = np.zeros((n, n))
     cx = 16.0 * rx**4
@@ -167,9 +153,8 @@ def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # noqa: P
 
 @dataclass(frozen=True)
 class RitzProblem:
-    """The Rayleigh-Ritz problem of one plate, shared by its classes: ``mx``, ``my`` the
-    :func:`matrices_1d` along ``xi`` and ``eta``; ``rx = L/a``, ``ry = L/b``, ``L = max(a, b)``;
-    ``nu`` Poisson's ratio."""
+    """One plate's Rayleigh-Ritz problem: :func:`matrices_1d` along ``xi`` and ``eta``, ``rx =
+    L/a``, ``ry = L/b``, ``L = max(a, b)``, Poisson's ``nu``."""
 
     mx: tuple
     my: tuple
@@ -179,8 +164,7 @@ class RitzProblem:
 
     @classmethod
     def over(cls, boundary: str, aspect: float, nu: float, sets) -> RitzProblem:
-        """The problem of a plate of aspect ``a/b`` with the degree pairs ``sets`` (one
-        ``(I, J)`` per class, :func:`index_set`): its matrices reach their largest degrees."""
+        """The problem of aspect ``a/b`` whose matrices reach the largest degrees of ``sets``."""
         alpha = basis_alpha(boundary)
         rx, ry = ratios(aspect)
         return cls(
@@ -193,19 +177,18 @@ class RitzProblem:
 
 
 def _stiffness(problem: RitzProblem, I, J, shift=0.0):
-    """Dimensionless stiffness matrix (upper triangle) of the basis ``psi_I(xi) psi_J(eta)`` plus
-    ``shift`` on the diagonal: with ``rx = L/a``, ``ry = L/b`` and ``lambda = omega^2 L^4 rho h /
-    D`` the Kirchhoff energy is ``16 Int [rx^4 w_xixi^2 + ry^4 w_etaeta^2 + 2 nu rx^2 ry^2 w_xixi
-    w_etaeta + 2 (1 - nu) rx^2 ry^2 w_xieta^2] dxi deta``, the mass matrix the identity."""
+    """Dimensionless stiffness (upper triangle) plus ``shift`` on the diagonal: ``lambda = omega^2
+    L^4 rho h / D``, the Kirchhoff energy ``16 Int [rx^4 w_xixi^2 + ry^4 w_etaeta^2 + 2 nu rx^2
+    ry^2 w_xixi w_etaeta + 2 (1 - nu) rx^2 ry^2 w_xieta^2]``, the mass matrix the identity."""
     I, J = (np.ascontiguousarray(a, dtype=np.int64) for a in (I, J))
     p = problem
     return _assemble(I, J, *p.mx, *p.my, float(p.rx), float(p.ry), float(p.nu), float(shift))
 
 
 def solve_class(problem: RitzProblem, I, J, lam_max: float, vectors: bool):
-    """Eigenpairs ``(lam, vec)`` ascending (``vec`` None if not wanted) with ``lam <= lam_max`` of
-    the class of basis ``(I, J)``, through ``(K + s I)^-1``: its largest eigenvalues carry a
-    relative error of about ``eps lambda / s``, whatever the norm of ``K``."""
+    """Eigenpairs ``(lam, vec)`` ascending with ``lam <= lam_max`` of the class of basis ``(I,
+    J)`` through ``(K + s I)^-1`` (Cholesky, LAPACK ``potri``): its largest eigenvalues carry a
+    relative error of about ``eps lambda / s`` whatever the norm of ``K``."""
     import scipy.linalg  # imported on use: a render from cached modes solves nothing
     from scipy.linalg import lapack
 

@@ -1,9 +1,7 @@
 """The cache of the free and clamped plates' Ritz solutions, in memory and as ``.npz`` in
-``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by the boundary, ``nu``,
-the aspect, the dimensionless band, the basis settings and the numerical libraries
-(:func:`~.common.numerics_key`). Only the exact band is reused: a wider band's modes differ in
-their last bits, and no result depends on what was solved before.
-"""
+``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by everything that
+sets them (:func:`band_key`). Only the exact band is reused: a wider band's modes differ in
+their last bits, and no result depends on what was solved before."""
 
 from __future__ import annotations
 
@@ -49,7 +47,7 @@ def _save(sol: RitzSolution, key: str) -> None:
 
 
 def _load(key: str, boundary: str, nu: float, aspect: float):
-    """The stored solution for ``key``, or None if absent, unreadable or inconsistent."""
+    """The stored solution of ``key``, or None if absent, unreadable or inconsistent."""
     try:
         path = _path(key, boundary)
         if not path.is_file():
@@ -95,8 +93,8 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
 
 
 def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
-    """The converged solution of the band ``omega_req`` (dimensionless): from memory,
-    disk, or solved; the same arrays whichever (see the module docstring)."""
+    """The converged solution of the band ``omega_req`` (dimensionless): from memory, disk, or
+    solved; the same arrays whichever."""
     if not cache:
         sol = solve_ritz(boundary, nu, aspect, omega_req)
         CACHE.count("computed")
@@ -122,10 +120,7 @@ def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache
 def band_key(boundary: str, nu: float, aspect: float, omega_req: float) -> str:
     """The cache key of the solution of exactly the band ``omega_req`` (dimensionless)."""
     return json.dumps(
-        {
-            "solution": solution_key(boundary, nu, aspect),
-            "band": float(omega_req).hex(),
-            "numerics": numerics_key(),
-        },
+        {"solution": solution_key(boundary, nu, aspect), "band": float(omega_req).hex(),
+         "numerics": numerics_key()},
         sort_keys=True,
-    )
+    )  # fmt: skip

@@ -1,8 +1,5 @@
-"""Simply supported plates: the closed form (Leissa 1969, ch. 4; docs/physics.md, "Plate modes"),
-``omega_mn = pi^2 sqrt(D / (rho h)) ((m/a)^2 + (n/b)^2)``, ``phi_mn = 2 sin(m pi x / a) sin(n pi
-y / b)``, whose product shapes (:class:`SeparableShapes`) share sums over points between modes
-(:func:`synth.sound.radiation.separable_gains`).
-"""
+"""Simply supported plates: the closed form (Leissa 1969, ch. 4), ``omega_mn = pi^2 sqrt(D /
+(rho h)) ((m/a)^2 + (n/b)^2)``, ``phi_mn = 2 sin(m pi x / a) sin(n pi y / b)``."""
 
 from __future__ import annotations
 
@@ -35,14 +32,10 @@ class SimplySupported:
         self.n = n[order]
         self.omega_max = omega_max
         self.key = json.dumps(
-            {
-                "version": VERSION,
-                "boundary": "simply-supported",
-                "aspect": float(aspect).hex(),
-                "omega_max": float(omega_max).hex(),
-            },
+            {"version": VERSION, "boundary": "simply-supported", "aspect": float(aspect).hex(),
+             "omega_max": float(omega_max).hex()},
             sort_keys=True,
-        )
+        )  # fmt: skip
 
     def shapes(self, xi, eta, n_modes):
         out = np.empty((xi.size, n_modes))
@@ -64,11 +57,10 @@ class SimplySupported:
 
 @dataclass(frozen=True)
 class SeparableShapes:
-    """Mode shapes that are products ``phi_k = X_(i_k)(x) Y_(j_k)(y)``, ``X_m(x) = sqrt(2) sin(m pi
-    x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``: :meth:`x_values` and :meth:`y_values` give
-    every factor at once, so sums over points are shared between modes. ``length``, ``width``:
-    ``a``, ``b``, m; ``x_index``, ``y_index``: mode ``k``'s columns of them; ``wavenumber``: the
-    largest of any factor, rad/m."""
+    """Shapes that are products ``phi_k = X_(i_k)(x) Y_(j_k)(y)``, ``X_m(x) = sqrt(2) sin(m pi x /
+    a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``, whose sums over points are shared between modes
+    (:func:`synth.sound.radiation.separable_gains`). ``length``, ``width``: m; ``x_index``,
+    ``y_index``: mode ``k``'s factors; ``wavenumber``: the largest factor's, rad/m."""
 
     length: float
     width: float
@@ -77,28 +69,26 @@ class SeparableShapes:
     wavenumber: float
 
     def x_values(self, x: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
-        """``X_i(x)`` for every index ``i`` in use: shape ``(len(x), max(x_index) + 1)``
-        (``x`` in metres); or for the indices ``index`` alone, ``(len(x), len(index))``."""
+        """``X_i(x)`` (``x`` in m) for every ``i`` in use, ``(len(x), max(x_index) + 1)``, or for
+        ``index`` alone."""
         return _sine_factors(x, math.pi / self.length, self.x_index, index)
 
     def y_values(self, y: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
-        """``Y_j(y)`` for every index ``j`` in use: shape ``(len(y), max(y_index) + 1)``
-        (``y`` in metres); or for the indices ``index`` alone, ``(len(y), len(index))``."""
+        """``Y_j(y)`` (``y`` in m) for every ``j`` in use, ``(len(y), max(y_index) + 1)``, or for
+        ``index`` alone."""
         return _sine_factors(y, math.pi / self.width, self.y_index, index)
 
     def mode_wavenumbers(self) -> np.ndarray:
-        """``k_k = pi sqrt((i_k + 1)^2 / a^2 + (j_k + 1)^2 / b^2)`` of every mode, rad/m:
-        each product of sines solves the Helmholtz equation ``(lap + k_k^2) phi_k = 0`` in
-        the whole plane (the sines continued beyond the plate)."""
+        """``k_k = pi sqrt((i_k + 1)^2 / a^2 + (j_k + 1)^2 / b^2)`` (rad/m): each product of sines
+        solves ``(lap + k_k^2) phi_k = 0`` in the whole plane."""
         kx = math.pi * (self.x_index + 1.0) / self.length
         ky = math.pi * (self.y_index + 1.0) / self.width
         return np.sqrt(kx * kx + ky * ky)
 
 
 def _sine_factors(u, rate, in_use, index):
-    """``sqrt(2) sin((i + 1) rate u)`` for ``i <= max(in_use)`` (the table of
-    :func:`_sine_table`), or for ``i`` in ``index``: from the table, or (a few indices
-    of a long table) by libm's sine directly."""
+    """``sqrt(2) sin((i + 1) rate u)`` for ``i <= max(in_use)`` (:func:`_sine_table`), or for
+    ``i`` in ``index`` (a few of a long table by libm's sine)."""
     t = np.ascontiguousarray(u, dtype=float) * rate
     n = int(in_use.max()) + 1 if in_use.size else 0
     if index is None:
@@ -111,9 +101,8 @@ def _sine_factors(u, rate, in_use, index):
 
 @compiled(nogil=True)
 def _sine_table(t, n):  # pragma: no cover
-    """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
-    ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every
-    32 orders (rounding grows by about one ulp per order: a few 1e-15)."""
+    """``out[j, m] = sqrt(2) sin((m + 1) t_j)``, ``m < n``, by rotation, restarted from libm every
+    32 orders (rounding grows by about one ulp per order)."""
     out = np.empty((t.size, n))
     root2 = math.sqrt(2.0)
     for j in range(t.size):

@@ -1,8 +1,6 @@
 """What the plate-mode solutions share: the cache layout's version, the numerical libraries
-of their keys (:func:`numerics_key`), the temporary-array budget of their shapes, the
-plate's aspect ratios, and a matrix product kept on the calling thread
-(:func:`single_thread_product`).
-"""
+of their keys, the temporary-array budget of their shapes, the aspect ratios, and a matrix
+product kept on the calling thread."""
 
 from __future__ import annotations
 
@@ -12,20 +10,17 @@ import numpy as np
 
 # Temporary-array budget of shapes(): elements (8 bytes each).
 CHUNK_ELEMENTS = 1 << 22
-# Largest matrix product shapes() hands to BLAS in one call, multiply-adds. OpenBLAS
-# runs products up to 4 * 65536 multiply-adds on one thread (its default
-# GEMM_MULTITHREAD_THRESHOLD). Shapes are evaluated beside other busy threads (the
-# Rayleigh sums of synth.sound.radiation); a multithreaded product whose helper thread
-# waits for a busy core stalls until that core is free, so each call stays on one thread.
+# Largest matrix product shapes() hands to BLAS in one call, multiply-adds: OpenBLAS runs up
+# to 4 * 65536 on one thread (GEMM_MULTITHREAD_THRESHOLD); beside busy threads (the radiation's
+# sums) a multithreaded product stalls until a helper's core is free.
 _PIECE = 1 << 18
 # Version of the stored solution layout and algorithm; part of the cache key.
 VERSION = 1
 
 
 def numerics_key() -> dict:
-    """The numerical libraries whose arithmetic sets a solution's last bits: numpy's (and its
-    BLAS), scipy's (its LAPACK and BLAS) and numba's versions. Part of the disk keys, so
-    that a cache directory written under other libraries is not served."""
+    """Versions of numpy, scipy and numba (their BLAS and LAPACK set a solution's last bits):
+    part of the disk keys, so that a cache written under other libraries is not served."""
     import numba
     import scipy
 
@@ -33,9 +28,8 @@ def numerics_key() -> dict:
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE`` multiply-adds,
-    which OpenBLAS runs on the calling thread (a multithreaded product waits for busy cores):
-    square-ish blocks of ``out``, every entry one whole dot product."""
+    """``out[...] = a @ b`` (2-D) by products of at most ``_PIECE`` multiply-adds, which
+    OpenBLAS runs on the calling thread (a multithreaded product waits for busy cores)."""
     n, k = a.shape
     m = b.shape[1]
     rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))

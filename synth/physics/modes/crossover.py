@@ -1,8 +1,7 @@
-"""Large free and clamped plates: a band whose Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS`
-per symmetry class takes the Ritz modes of a low band and the dynamic edge effect modes of
-:mod:`synth.physics.asymptotic_modes` above it (linear cost; within 0.5 % of the Ritz solver,
-docs/physics.md, "Large free and clamped plates").
-"""
+"""Large free and clamped plates: a band whose Ritz problem would exceed
+:data:`CROSSOVER_UNKNOWNS` per class takes the Ritz modes of a low band and the dynamic edge
+effect modes of :mod:`synth.physics.asymptotic_modes` above it (linear cost; within 0.5 %
+of the Ritz solver, docs/physics.md, "Large free and clamped plates")."""
 
 from __future__ import annotations
 
@@ -13,27 +12,23 @@ import numpy as np
 from synth.physics.modes.cache import cached_ritz
 from synth.physics.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
 
-#: Relative accuracy of the dynamic edge effect frequencies (with their Rayleigh-Ritz
-#: step) above the Ritz low band of a crossed-over plate, against the Ritz solver
-#: (tests/test_asymptotic_modes.py checks the free and clamped rectangles and squares).
+#: Relative accuracy of the edge effect frequencies above a crossed-over plate's Ritz low band,
+#: against the Ritz solver (tests/test_asymptotic_modes.py).
 EDGE_EFFECT_TOLERANCE = 0.005
-# Crossover to the dynamic edge effect method (synth.physics.asymptotic_modes): a free or
-# clamped band whose Ritz problem would exceed this many unknowns per symmetry class
-# (ritz_unknowns) takes the Ritz modes of a low band only (up to LOW_BAND_UNKNOWNS) and the
-# edge effect modes above it, avoiding the Ritz solve's cubic growth. It lies just above
-# every preset's band at 48 kHz, so their recorded renders keep the Ritz path.
+# Ritz unknowns per symmetry class (ritz_unknowns) beyond which a band takes the Ritz modes of
+# a low band (LOW_BAND_UNKNOWNS) and the edge effect modes above, avoiding the Ritz solve's
+# cubic growth; just above every preset's band at 48 kHz (their renders keep the Ritz path).
 CROSSOVER_UNKNOWNS = 1850
-# Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
-# method's least accurate: corner and beam-like modes; the tests measure its accuracy
-# above a band of 200) exact, in a fraction of a second.
+# Ritz size of a crossed-over plate's low band: its lowest modes (the edge effect method's
+# least accurate, corner and beam-like) exact in a fraction of a second.
 LOW_BAND_UNKNOWNS = 300
 # Most modes any band may hold (arrays of a few hundred MB per listener beyond).
 _MAX_MODES = 2_000_000
 
 
 def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
-    """The band (dimensionless) whose Ritz problem has about ``unknowns`` per class
-    (bisection on the increasing :func:`ritz_unknowns`), at most ``omega_hi``."""
+    """The band (dimensionless, at most ``omega_hi``) whose Ritz problem has about ``unknowns``
+    per class (bisection)."""
     lo, hi = 0.0, omega_hi
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -45,9 +40,9 @@ def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
 
 
 def _seam(omega: np.ndarray, omega_low: float) -> float:
-    """Where the Ritz modes ``omega`` (ascending) hand over to the edge effect ones: the middle of
-    the widest relative gap in the top third of ``omega <= omega_low``, so that an edge effect
-    mode's error does not move it across the seam."""
+    """Where the Ritz modes ``omega`` hand over to the edge effect ones: the middle of the widest
+    relative gap in the top third of ``omega <= omega_low`` (an edge mode's error does not
+    move it across)."""
     band = omega[(omega >= omega_low * 2.0 / 3.0) & (omega <= omega_low)]
     if band.size < 2:
         return omega_low
@@ -87,8 +82,8 @@ class HybridSolution:
         return out
 
     def shapes_of(self, xi, eta, index):
-        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the
-        first modes' shapes, the edge effect ones alone."""
+        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the first modes'
+        shapes, the edge effect ones alone."""
         n_r = int(np.searchsorted(index, self.n_low))
         out = np.empty((xi.size, index.size))
         if n_r:

@@ -1,10 +1,7 @@
-"""Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes").
-
-Solves the four symmetry classes (:mod:`synth.physics.modes.basis`) and again with a larger
-nested basis: Ritz values fall monotonically to the exact ones, so the two bound each mode's
-error, and every mode returned agrees to :data:`TOLERANCE` (else the basis grows). Shapes
-are sums of products ``2 sum c_ij psi_i(xi) psi_j(eta)`` (:class:`SummedShapes`).
-"""
+"""Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes"). The
+four symmetry classes (:mod:`~.basis`) are solved again with a larger nested basis: Ritz
+values fall monotonically to the exact ones, so the two bound each mode's error, and every
+mode returned agrees to :data:`TOLERANCE` (else the basis grows)."""
 
 from __future__ import annotations
 
@@ -29,10 +26,8 @@ from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios, single_t
 #: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
 TOLERANCE = 1e-4
 
-# Basis-size rule g(kappa) = kappa + C1 kappa^(1/3) + C0 (degrees), and the extra
-# degrees of the check basis. Chosen from the measured Legendre convergence of
-# free and clamped plates (tests/test_plate.py checks the result against a much
-# larger basis).
+# Basis-size rule g(kappa) = kappa + C1 kappa^(1/3) + C0 (degrees) and the check basis' extra
+# degrees, from the Legendre convergence of free and clamped plates (tests/test_plate.py).
 _C0 = 2.0
 _C1 = 3.0
 _D0 = 2.0
@@ -42,18 +37,15 @@ _D1 = 1.0
 _MAX_UNKNOWNS = 12000
 # Parity classes (x, y): 0 = even, 1 = odd.
 _CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
-#: Symmetry classes with more unknowns than this (in the first basis tried) are solved on
-#: one BLAS thread (see _solve_classes). Every size is: BLAS's own threads split its sums
-#: by their number, so the last bits of the modes would depend on the process's thread
-#: count (a bank's workers run one thread, a command as many as the cores) and a result's
-#: bytes on where it was computed. ``math.inf``: never on one thread.
+#: Symmetry classes with more unknowns than this (in the first basis) are solved on one BLAS
+#: thread. Every size is: BLAS's threads split its sums, so the modes' last bits would depend
+#: on the process's thread count. ``math.inf``: never on one thread.
 ONE_THREAD_UNKNOWNS = 0
 
 
 @compiled()
 def _take_columns(a, index):  # pragma: no cover
-    """Reorder the columns of ``a`` in place, row by row: ``a[p, k] = a_old[p, index[k]]``
-    (``index`` a permutation of ``range(a.shape[1])``)."""
+    """Reorder the columns of ``a`` in place: ``a[p, k] = a_old[p, index[k]]``."""
     n, m = a.shape
     row = np.empty(m)
     for p in range(n):
@@ -68,7 +60,7 @@ class RitzSolution:
     """Free or clamped modes of aspect ``a/b`` and Poisson ``nu`` up to ``omega_max``
     (dimensionless ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``): ``omega`` ascending, mode
     ``k`` column ``col[k]`` of ``coef[cls[k]]`` on ``psi_I(xi) psi_J(eta)``, ``I, J =
-    index[cls[k]]`` (the shape ``2 sum c_ij psi_i psi_j``); ``info`` how it was obtained."""
+    index[cls[k]]`` (shape ``2 sum c_ij psi_i psi_j``); ``info`` how it was obtained."""
 
     boundary: str
     nu: float
@@ -93,19 +85,14 @@ class RitzSolution:
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(arr.nbytes for arr in arrays)
-        self.key = json.dumps(
-            {
-                "solution": solution_key(self.boundary, self.nu, self.aspect),
-                "omega_max": float(self.omega_max).hex(),
-            },
-            sort_keys=True,
-        )
+        solution = solution_key(self.boundary, self.nu, self.aspect)
+        omega_max = float(self.omega_max).hex()
+        self.key = json.dumps({"solution": solution, "omega_max": omega_max}, sort_keys=True)
 
     def _dense_coefficients(self, c, m, axis):
-        """Coefficients of class ``c``'s first ``m`` modes as a dense
-        ``(n_s, n_t * m)`` matrix, ``s`` the degrees along ``axis`` (0: xi, 1: eta)
-        and ``t`` along the other, one parity each (degree ``d`` at ``d // 2``);
-        zero where the basis has no such degree pair. Read-only, cached."""
+        """Class ``c``'s first ``m`` modes' coefficients as a dense ``(n_s, n_t * m)`` matrix, ``s``
+        the degrees along ``axis`` (0: xi, 1: eta) and ``t`` the other's, one parity each (degree
+        ``d`` at ``d // 2``), zero where the basis has no such pair. Read-only, cached."""
         key = (c, m, axis)
         dense = self._dense.get(key)
         if dense is None:
@@ -120,9 +107,9 @@ class RitzSolution:
         return dense
 
     def shapes(self, xi, eta, n_modes):
-        """Shapes ``phi_k`` (``len(xi)``, ``n_modes``) of the first modes at ``(xi, eta)``, each
-        class one block of columns by matrix products, put in frequency order at the end; points
-        sharing a coordinate share the partial sum; temporaries below ``CHUNK_ELEMENTS`` doubles."""
+        """Shapes ``(len(xi), n_modes)`` of the first modes at ``(xi, eta)``: each class a block of
+        columns by matrix products, put in frequency order at the end; points sharing a coordinate
+        share the partial sum; temporaries below ``CHUNK_ELEMENTS`` doubles."""
         out = np.empty((xi.size, n_modes))
         if n_modes == 0 or xi.size == 0:
             return out
@@ -169,9 +156,8 @@ class RitzSolution:
         return out
 
     def summed(self, n_modes, length, width, wavenumber):
-        """The first ``n_modes`` shapes as a :class:`SummedShapes` of a plate
-        ``length`` x ``width`` (metres) whose largest bending wavenumber is
-        ``wavenumber`` (rad/m)."""
+        """The first ``n_modes`` shapes as :class:`SummedShapes` of a ``length`` x ``width`` (m)
+        plate whose largest bending wavenumber is ``wavenumber`` (rad/m)."""
         cls = self.cls[:n_modes]
         n_x = max(int(I.max()) for I, _ in self.index) + 1
         n_y = max(int(J.max()) for _, J in self.index) + 1
@@ -186,10 +172,9 @@ class RitzSolution:
         return SummedShapes(length, width, wavenumber, n_x, n_y, n_modes, alpha, tuple(parts), self)
 
     def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
-        """Shapes at points sharing values of the ``axis`` coordinate (0: xi, 1: eta), point ``p``
-        at ``u[inv[p]]`` and ``v[inv_v[p]]``, into the blocks of ``out`` of ``parts`` (``(c,
-        cols, coef, I, J)`` per class): the grouped coordinate's sum once per distinct ``u``,
-        then each point's sum over the other (:func:`_product`)."""
+        """Shapes at points sharing values of the ``axis`` coordinate (0: xi, 1: eta), point
+        ``p`` at ``u[inv[p]]``, ``v[inv_v[p]]``, into ``out``'s blocks of ``parts``: the grouped
+        sum once per distinct ``u``, then each point's sum over the other."""
         deg = [(I, J) if axis == 0 else (J, I) for *_, I, J in parts]
         ps = 2.0 * basis_1d(alpha, max(int(S.max()) for S, _ in deg) + 1, u)[0]
         pv = basis_1d(alpha, max(int(T.max()) for _, T in deg) + 1, v)[0]
@@ -220,8 +205,7 @@ class RitzSolution:
 
 
 def _wavenumbers(aspect: float, omega: float, grow: float = 1.0) -> tuple[float, float]:
-    """The band ``omega``'s (dimensionless) wavenumbers per unit of xi and eta, scaled by
-    ``grow``: ``k L = sqrt(Omega)``, ``a = L / rx``."""
+    """The band's wavenumbers per unit of xi and eta, times ``grow``: ``k L = sqrt(Omega)``."""
     rx, ry = ratios(aspect)
     k_l = math.sqrt(omega) * grow
     return 0.5 * k_l / rx, 0.5 * k_l / ry
@@ -234,50 +218,35 @@ def _index_sets(kx: float, ky: float, check: bool = False) -> list:
 
 
 def _check_unknowns(kx: float, ky: float) -> float:
-    """Estimated unknowns of the largest class of the check basis: the kept degree pairs fill
-    about pi/4 of the rectangle of the largest degrees, a quarter per class."""
+    """Estimated unknowns of the check basis' largest class: the kept pairs fill about pi/4 of
+    the rectangle of the largest degrees, a quarter per class."""
     nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
     ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
     return math.pi / 16.0 * nx_max * ny_max
 
 
 def ritz_unknowns(aspect: float, omega: float) -> float:
-    """Estimated unknowns of the largest symmetry class of the Ritz check basis for the band
-    ``omega`` (dimensionless)."""
+    """Estimated unknowns of the largest class of the check basis for the band ``omega``."""
     return _check_unknowns(*_wavenumbers(aspect, omega))
 
 
-def first_basis_degrees(aspect: float, omega: float) -> int:
-    """The most degrees of one parity along one axis of the first main basis :func:`solve_ritz`
-    tries for ``omega`` (dimensionless): the terms a shape value on a grid costs per mode,
-    for :mod:`synth.cost`."""
-    sets = _index_sets(*_wavenumbers(aspect, omega))
-    return int(max([1] + [np.unique(a).size for ij in sets for a in ij]))
-
-
-def first_basis_factors(aspect: float, omega: float) -> tuple[int, int]:
-    """Factors ``(n_x, n_y)`` along x and y spanned by the first main basis :func:`solve_ritz`
-    tries for ``omega`` (dimensionless), as :meth:`RitzSolution.summed` counts them (for
-    :mod:`synth.cost`)."""
-    n_x = n_y = 1
-    for i, j in _index_sets(*_wavenumbers(aspect, omega)):
-        if i.size:
-            n_x, n_y = max(n_x, int(i.max()) + 1), max(n_y, int(j.max()) + 1)
-    return n_x, n_y
-
-
-def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]]:
-    """Unknowns of each symmetry class's main and check bases in the first basis
-    :func:`solve_ritz` tries for ``omega`` (dimensionless), without any matrix (for
-    :mod:`synth.cost`)."""
+def first_basis(aspect: float, omega: float):
+    """The first main basis :func:`solve_ritz` tries for ``omega`` (dimensionless), without any
+    matrix (for :mod:`synth.cost`): the most degrees of one parity along an axis (a grid's
+    shape terms per mode), the factors ``(n_x, n_y)`` of :meth:`RitzSolution.summed`, and the
+    unknowns of each class's main and check bases."""
     kx, ky = _wavenumbers(aspect, omega)
-    return [i.size for i, _ in _index_sets(kx, ky)], [i.size for i, _ in _index_sets(kx, ky, True)]
+    sets = _index_sets(kx, ky)
+    degrees = int(max([1] + [np.unique(a).size for ij in sets for a in ij]))
+    n_x = max([1] + [int(i.max()) + 1 for i, _ in sets if i.size])
+    n_y = max([1] + [int(j.max()) + 1 for i, j in sets if i.size])
+    sizes = [i.size for i, _ in sets], [i.size for i, _ in _index_sets(kx, ky, True)]
+    return degrees, (n_x, n_y), sizes
 
 
 def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
-    """``(lam, vec, lam_check)`` of each class: eigenpairs of ``main[c]``, eigenvalues of the
-    larger ``check[c]`` (:func:`solve_class`); ``one_thread``: on one BLAS thread, as a
-    multithreaded LAPACK call stalls on busy cores (:func:`.common.single_thread_product`)."""
+    """``(lam, vec, lam_check)`` of each class (:func:`solve_class`); ``one_thread``: on one BLAS
+    thread (a multithreaded LAPACK call stalls on busy cores)."""
 
     def solve(c):
         lam, vec = solve_class(problem, *main[c], lam_cut, True)
@@ -293,9 +262,8 @@ def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
 
 
 def _bases(aspect: float, omega_req: float, grow: float):
-    """The main and check bases (one ``(I, J)`` per symmetry class) for modes up to
-    ``omega_req``, the wavenumbers scaled by ``grow``; ``TooLarge`` past the dense solver
-    (refused on the estimate before any index set is built)."""
+    """The main and check bases for ``omega_req``, wavenumbers times ``grow``; ``TooLarge`` past
+    the dense solver (refused on the estimate before any index set)."""
     kx, ky = _wavenumbers(aspect, omega_req, grow)
     if _check_unknowns(kx, ky) > _MAX_UNKNOWNS:
         raise TooLarge(int(_check_unknowns(kx, ky)))
@@ -307,8 +275,8 @@ def _bases(aspect: float, omega_req: float, grow: float):
 
 
 def _elastic(boundary: str, c: int, lam, vec, lam2):
-    """The class's eigenpairs without its rigid-body motion: a free plate's classes 0, 1
-    and 2 hold one (1, xi, eta), a zero eigenvalue each (numerically ``|lambda| ~ eps s``)."""
+    """The class's eigenpairs without the free plate's rigid-body motion (classes 0-2 hold one
+    of 1, xi, eta: a zero eigenvalue each)."""
     if boundary != "free" or c == 3:
         return lam, vec, lam2
     if not (lam.size and lam2.size and abs(lam[0]) < 1e-6 * SHIFT and abs(lam2[0]) < 1e-6 * SHIFT):
@@ -317,9 +285,8 @@ def _elastic(boundary: str, c: int, lam, vec, lam2):
 
 
 def _worst_change(om, om2, omega_req: float) -> float:
-    """The largest relative change of a mode at or below ``omega_req`` from the main
-    basis (``om``) to the check basis (``om2``); ``inf`` when a check mode has no main
-    partner."""
+    """Largest relative change of a mode up to ``omega_req`` from the main basis (``om``) to the
+    check basis (``om2``); ``inf`` when a check mode has no main partner."""
     need = int(np.searchsorted(om2, omega_req, side="right"))
     if need > om.size:
         return math.inf
@@ -374,22 +341,13 @@ def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> Rit
 
 
 def solution_key(boundary: str, nu: float, aspect: float) -> str:
-    """Everything that determines a stored solution, as a canonical JSON string."""
+    """Everything that determines a stored solution, as canonical JSON."""
     return json.dumps(
-        {
-            "version": VERSION,
-            "boundary": boundary,
-            "nu": float(nu).hex(),
-            "aspect": float(aspect).hex(),
-            "c0": _C0,
-            "c1": _C1,
-            "d0": _D0,
-            "d1": _D1,
-            "shift": SHIFT,
-            "tolerance": TOLERANCE,
-        },
+        {"version": VERSION, "boundary": boundary, "nu": float(nu).hex(),
+         "aspect": float(aspect).hex(), "c0": _C0, "c1": _C1, "d0": _D0, "d1": _D1,
+         "shift": SHIFT, "tolerance": TOLERANCE},
         sort_keys=True,
-    )
+    )  # fmt: skip
 
 
 class TooLarge(Exception):
@@ -401,12 +359,10 @@ class TooLarge(Exception):
 
 @dataclass(frozen=True, eq=False)
 class SummedShapes:
-    """Mode shapes that are sums of products ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the
-    Ritz shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a weighted
-    sum over points is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix for every
-    mode (:meth:`combine`; :func:`synth.sound.radiation.summed_gains`). ``length``, ``width``:
-    ``a``, ``b``, m; ``wavenumber``: the largest bending wavenumber, rad/m; ``n_x``, ``n_y``:
-    the factors' counts (columns of :meth:`x_values`, :meth:`y_values`); ``n_modes``."""
+    """Shapes as sums of products ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (``X_i(x) = psi_i(2
+    x / a - 1)``): a weighted sum over points is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y``
+    one matrix for every mode (:meth:`combine`). ``length``, ``width``: m; ``wavenumber``: the
+    largest, rad/m; ``n_x``, ``n_y``: the factors' counts; ``n_modes``."""
 
     length: float
     width: float
@@ -420,27 +376,25 @@ class SummedShapes:
     _solution: object = field(repr=False)
 
     def values(self, points: np.ndarray) -> np.ndarray:
-        """``phi_k`` at ``points`` (``(n, 2)`` array of ``(x, y)``, metres, on the plate):
-        shape ``(n, n_modes)``, as :meth:`Modes.shapes`."""
+        """``phi_k`` at ``points`` ((n, 2), metres, on the plate): ``(n, n_modes)``."""
         pts = np.asarray(points, dtype=float)
         xi = np.clip(2.0 * pts[:, 0] / self.length - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * pts[:, 1] / self.width - 1.0, -1.0, 1.0)
         return self._solution.shapes(xi, eta, self.n_modes)
 
     def x_values(self, x: np.ndarray) -> np.ndarray:
-        """``X_i(x)`` for ``i < n_x``: shape ``(len(x), n_x)`` (``x`` in metres, on the plate)."""
+        """``X_i(x)`` for ``i < n_x``: ``(len(x), n_x)``, ``x`` in metres."""
         xi = np.clip(2.0 * np.asarray(x, dtype=float) / self.length - 1.0, -1.0, 1.0)
         return basis_1d(self._alpha, self.n_x, xi)[0]
 
     def y_values(self, y: np.ndarray) -> np.ndarray:
-        """``Y_j(y)`` for ``j < n_y``: shape ``(len(y), n_y)`` (``y`` in metres, on the plate)."""
+        """``Y_j(y)`` for ``j < n_y``: ``(len(y), n_y)``, ``y`` in metres."""
         eta = np.clip(2.0 * np.asarray(y, dtype=float) / self.width - 1.0, -1.0, 1.0)
         return basis_1d(self._alpha, self.n_y, eta)[0]
 
     def combine(self, sums: np.ndarray, modes: np.ndarray | None = None) -> np.ndarray:
-        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode, or the increasing ``modes``:
-        ``sums`` (n, n_x, n_y) (``X^T diag(w) Y`` of ``n`` point sets) gives (n, n_modes), one
-        matrix product per symmetry class."""
+        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode or the increasing ``modes``:
+        ``sums`` (n, n_x, n_y) gives (n, n_modes), one matrix product per symmetry class."""
         flat = np.ascontiguousarray(sums, dtype=float).reshape(sums.shape[0], -1)
         width = self.n_modes if modes is None else len(modes)
         out = np.empty((flat.shape[0], width))
