@@ -254,7 +254,19 @@ class Residual:
         self.pre = max(1, int(round(DEFLATION_PRE * fs)))
         self.post = max(1, int(round(DEFLATION_POST * fs)))
         self.q[start : start + template.size] -= template
-        self.origin, self.template_end = start, start + template.size
+        # the first tick's onset and its template's end, where its ringing stops being taken out;
+        # None where the lead-in holds sound, the background of the ticks after it as of the
+        # first (:meth:`background_frames`)
+        self.origin = start if self._silent_lead_in(start) else None
+        self.template_end = start + template.size
+
+    def _silent_lead_in(self, start: int) -> bool:
+        """Whether the background's span before sample ``start`` (the first onset) holds no frame
+        over the whitened noise floor nor within the dynamic range (a render's digital silence):
+        no sound, so no background of the ringing after it (:meth:`background_frames`). A lead-in
+        that holds sound (a room's noise and reverberation) is the background a tick rises from."""
+        lead = frame_energies(self.r[max(0, start - self.bg * self.hop) : start], self.hop, self.w)
+        return not np.any(lead > max(self.noise, self.floor or 0.0))
 
     @property
     def longest_lag(self) -> int:
@@ -319,20 +331,24 @@ class Residual:
         """The frames of ``d`` (frame 0 at ``lo``) clearing the rules, their thresholds and
         backgrounds."""
         scalars = (self.noise, self.thr, self.fade, self.rise, self.floor, self.kappa)
-        origin = (self.origin - lo) // self.hop
-        cut = (self.template_end - lo) // self.hop
+        if self.origin is None:  # the median rule over the past alone
+            origin, cut, past = 0, d.size, d
+        else:
+            origin = (self.origin - lo) // self.hop
+            cut = (self.template_end - lo) // self.hop
+            past = self.background_frames(d, lo)
         rules = Rules(self.bg, *map(float, scalars), self.span, int(origin), int(cut))
-        past = self.background_frames(d, lo)
         d, sub, past = (np.ascontiguousarray(a, dtype=np.float64) for a in (d, sub, past))
         return _rules(d, sub, past, int(first), rules)
 
     def background_frames(self, d: np.ndarray, lo: int) -> np.ndarray:
         """The frame energies (frame 0 at ``lo``) a frame past the first tick's template rises
-        from: ``d``, but over the template's span those of ``r``. The template's end (where step
-        3 found its next candidate) is where the first tick's ringing stops being taken out:
-        beyond it a frame rises from that ringing, whose level over the span is ``r``'s, not the
-        residual's (zero there by construction), nor that of the lead-in before the first
-        onset (no part of the ringing, so the median's window starts at the onset)."""
+        from, after a silent lead-in (:meth:`_silent_lead_in`): ``d``, but over the template's
+        span those of ``r``. The template's end (where step 3 found its next candidate) is where
+        the first tick's ringing stops being taken out: beyond it a frame rises from that
+        ringing, whose level over the span is ``r``'s, not the residual's (zero there by
+        construction) nor the silence's before the first onset (the median's window starts at
+        the onset)."""
         a = max(lo, self.origin)
         b = min(lo + (d.size - 1) * self.hop + self.w, self.template_end)
         if b <= a:
