@@ -318,12 +318,13 @@ def test_lazy_block_ticks_are_the_measured_ones():
 def test_candidate_rules_are_the_array_formulation():
     """The compiled candidate rules give the values of their array formulation: the running
     median of the past, the fading memory, the floors, and the sums over the remainder span
-    (``numpy.convolve``): the thresholds and backgrounds within 1e-14 (a few units in the last
-    place: numpy's vectorised ``log10`` and power may round differently from the compiled
-    code's libm), the candidates exactly."""
+    (``numpy.convolve``), the median of the lead-in ``lead`` from ``origin`` past the template's
+    end ``cut``: the thresholds and backgrounds within 1e-14 (a few units in the last place:
+    numpy's vectorised ``log10`` and power may round differently from the compiled code's
+    libm), the candidates exactly."""
     from synth.analysis.deflation import Rules, _rules, running_median
 
-    def arrays(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):
+    def arrays(d, sub, lead, first, bg, noise, thr, fade, rise, floor, kappa, span, origin, cut):
         k = np.arange(d.size)
         a = max(0, first - bg - 3)
         med = np.full_like(d, np.nan)
@@ -332,6 +333,10 @@ def test_candidate_rules_are_the_array_formulation():
         j = k - 2 - bg // 2 - 1
         ok = (j >= bg // 2) & (k >= first)
         past_med[ok] = np.maximum(med[j[ok]], noise)
+        for i in range(max(first, cut), min(d.size, cut + bg + 2)):
+            b0 = max(origin, i - 2 - bg, 0)
+            if b0 < i - 2:
+                past_med[i] = max(np.median(lead[b0 : i - 2]), noise)
         with np.errstate(divide="ignore"):
             memory = np.maximum.accumulate(np.log10(d) + k * fade)
         past = np.zeros_like(d)
@@ -351,6 +356,7 @@ def test_candidate_rules_are_the_array_formulation():
         return hit, threshold, past_med
 
     rng = np.random.default_rng(11)
+    frames = np.random.default_rng(12)
     for trial in range(200):
         n = int(rng.integers(1, 900))
         d = rng.exponential(size=n) * 10.0 ** rng.uniform(-12, 0, n)
@@ -366,8 +372,12 @@ def test_candidate_rules_are_the_array_formulation():
             float(10.0 ** rng.uniform(-12, -2)),
             1.0,
             int(rng.integers(2, 6)),
+            int(frames.integers(-50, max(1, n))),  # the first onset's frame, the template's end
+            int(frames.integers(-50, max(1, n) + 50)),
         )
-        got, want = _rules(d, sub, args[0], Rules(*args[1:])), arrays(d, sub, *args)
+        lead = np.where(frames.random(n) < 0.5, d, frames.exponential(size=n))
+        got = _rules(d, sub, lead, args[0], Rules(*args[1:]))
+        want = arrays(d, sub, lead, *args)
         np.testing.assert_allclose(got[1], want[1], rtol=1e-14, atol=0, err_msg=str(trial))
         np.testing.assert_allclose(got[2], want[2], rtol=1e-14, atol=0, err_msg=str(trial))
         assert np.array_equal(got[0], want[0]), trial

@@ -159,7 +159,8 @@ def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
 class Rules(NamedTuple):
     """Parameters of :func:`_rules`: background length ``bg`` (frames), whitened ``noise`` and
     ``floor`` (energies per frame), margins ``thr`` and ``kappa`` (power ratios), memory ``fade``
-    per frame and ``rise`` (log10 units), and remainder frames ``span``."""
+    per frame and ``rise`` (log10 units), remainder frames ``span``, and the frames of the first
+    tick's onset ``origin`` and of its template's end ``cut``."""
 
     bg: int
     noise: float
@@ -169,15 +170,19 @@ class Rules(NamedTuple):
     floor: float
     kappa: float
     span: int
+    origin: int
+    cut: int
 
 
 @compiled(nogil=True)
-def _rules(d, sub, first, rules):  # pragma: no cover - compiled
+def _rules(d, sub, lead, first, rules):  # pragma: no cover - compiled
     """Frames ``k >= first`` of ``d`` over the largest of: the past's median (frames ``k-2-bg ..
     k-3``, at least ``noise``) times ``thr``, the fading memory raised by ``rise``, ``floor``,
     ``kappa`` times ``sub``; carrying over ``kappa`` times what was taken out over ``k-1 ..
-    k+span-2``. Returns them, the thresholds and backgrounds."""
-    bg, noise, thr, fade, rise, floor, kappa, span = rules
+    k+span-2``. Past the template's end (``cut``), while the past reaches into it, the median is
+    that of ``lead`` from ``origin`` on (:meth:`Residual.background_frames`). Returns them, the
+    thresholds and backgrounds."""
+    bg, noise, thr, fade, rise, floor, kappa, span, origin, cut = rules
     n = d.size
     a = max(0, first - bg - 3)
     med = _running_median(d[a:], bg) if a < n else np.zeros(0)
@@ -193,7 +198,10 @@ def _rules(d, sub, first, rules):  # pragma: no cover - compiled
     half = bg // 2
     for k in range(n):
         j = k - 2 - half - 1
-        if j >= half and k >= first:
+        b0 = max(origin, k - 2 - bg, 0)
+        if k >= first and cut <= k < cut + bg + 2 and b0 < k - 2:
+            past_med[k] = max(np.median(lead[b0 : k - 2]), noise)
+        elif j >= half and k >= first:
             past_med[k] = max(med[j - a], noise)
         t = past_med[k] * thr if np.isfinite(past_med[k]) else 0.0
         past = 10.0 ** (memory[k - 2] - k * fade + rise) if k >= 2 else 0.0
@@ -246,6 +254,19 @@ class Residual:
         self.pre = max(1, int(round(DEFLATION_PRE * fs)))
         self.post = max(1, int(round(DEFLATION_POST * fs)))
         self.q[start : start + template.size] -= template
+        # the first tick's onset and its template's end, where its ringing stops being taken out;
+        # None where the lead-in holds sound, the background of the ticks after it as of the
+        # first (:meth:`background_frames`)
+        self.origin = start if self._silent_lead_in(start) else None
+        self.template_end = start + template.size
+
+    def _silent_lead_in(self, start: int) -> bool:
+        """Whether the background's span before sample ``start`` (the first onset) holds no frame
+        over the whitened noise floor nor within the dynamic range (a render's digital silence):
+        no sound, so no background of the ringing after it (:meth:`background_frames`). A lead-in
+        that holds sound (a room's noise and reverberation) is the background a tick rises from."""
+        lead = frame_energies(self.r[max(0, start - self.bg * self.hop) : start], self.hop, self.w)
+        return not np.any(lead > max(self.noise, self.floor or 0.0))
 
     @property
     def longest_lag(self) -> int:
@@ -301,24 +322,47 @@ class Residual:
             return False
         hi = min(self.q.size, lo + (last + self.span) * self.hop + self.w)
         d = frame_energies(self.q[lo:hi], self.hop, self.w)
-        hit = self._hits(d, self.taken_out(lo, hi), first)[0]
+        hit = self._hits(d, self.taken_out(lo, hi), first, lo)[0]
         return bool(hit.size) and int(hit[0]) <= last
 
     def _hits(
-        self, d: np.ndarray, sub: np.ndarray, first: int
+        self, d: np.ndarray, sub: np.ndarray, first: int, lo: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The frames of ``d`` clearing the rules, their thresholds and backgrounds."""
+        """The frames of ``d`` (frame 0 at ``lo``) clearing the rules, their thresholds and
+        backgrounds."""
         scalars = (self.noise, self.thr, self.fade, self.rise, self.floor, self.kappa)
-        rules = Rules(self.bg, *map(float, scalars), self.span)
-        d, sub = (np.ascontiguousarray(a, dtype=np.float64) for a in (d, sub))
-        return _rules(d, sub, int(first), rules)
+        if self.origin is None:  # the median rule over the past alone
+            origin, cut, past = 0, d.size, d
+        else:
+            origin = (self.origin - lo) // self.hop
+            cut = (self.template_end - lo) // self.hop
+            past = self.background_frames(d, lo)
+        rules = Rules(self.bg, *map(float, scalars), self.span, int(origin), int(cut))
+        d, sub, past = (np.ascontiguousarray(a, dtype=np.float64) for a in (d, sub, past))
+        return _rules(d, sub, past, int(first), rules)
+
+    def background_frames(self, d: np.ndarray, lo: int) -> np.ndarray:
+        """The frame energies (frame 0 at ``lo``) a frame past the first tick's template rises
+        from, after a silent lead-in (:meth:`_silent_lead_in`): ``d``, but over the template's
+        span those of ``r``. The template's end (where step 3 found its next candidate) is where
+        the first tick's ringing stops being taken out: beyond it a frame rises from that
+        ringing, whose level over the span is ``r``'s, not the residual's (zero there by
+        construction) nor the silence's before the first onset (the median's window starts at
+        the onset)."""
+        a = max(lo, self.origin)
+        b = min(lo + (d.size - 1) * self.hop + self.w, self.template_end)
+        if b <= a:
+            return d
+        z = self.q[lo : lo + (d.size - 1) * self.hop + self.w].copy()
+        z[a - lo : b - lo] = self.r[a:b]
+        return frame_energies(z, self.hop, self.w)
 
     def _first_clearing(
         self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False
     ) -> Candidate | None:
         """The first frame from ``first`` of ``d`` (frame 0 at ``lo``) that clears the rules, at its
         local maximum; with ``settled``, None unless later frames cannot change it."""
-        hit, threshold, past_med = self._hits(d, sub, first)
+        hit, threshold, past_med = self._hits(d, sub, first, lo)
         if not hit.size or (settled and hit[0] + self.span - 2 >= d.size):
             return None
         first_hit = m = int(hit[0])
