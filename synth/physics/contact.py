@@ -23,6 +23,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
+from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels import outcome as _o
 from synth.physics.contact_law import ShellLaw, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
@@ -153,15 +154,6 @@ def _hertz_only(name: str, value, checked: float, exponent: float, what: str) ->
     return checked
 
 
-def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
-    """The yield penetration ``delta_y`` (m) for the kernels, or None where no impact
-    approached at ``v0`` (m/s) or slower can reach it (``contact_kernels.yield_reachable``):
-    numba then runs the kernels compiled without the yield."""
-    if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v0):
-        return None
-    return delta_y
-
-
 def check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
     if (
@@ -180,11 +172,11 @@ def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
     """The :class:`ImpactResult` of a power law's kernel result ``r`` (a list of floats,
     fields ``R_*``) and dense output ``hist``."""
     stiff = bool(r[_o.R_STIFF])
+    xy = None if r[_o.R_XY] == _INF else r[_o.R_XY]
+    law = _eq.Law(r[_o.R_INELASTICITY], r[_o.R_G], n, r[_o.R_C], r[_o.R_B], xy)
     dense = DenseOutput(
-        hist, stiff, r[_o.R_INELASTICITY], r[_o.R_G], n, r[_o.R_C], r[_o.R_B],
-        r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE], n_points,
-        None if r[_o.R_XY] == _INF else r[_o.R_XY],
-    )  # fmt: skip
+        hist, stiff, law, r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE], n_points
+    )
     return result_from_row(ImpactResult, r, "Radau" if stiff else "DOP853", dense)
 
 
@@ -365,16 +357,12 @@ class ContactSolver:
         # is handed over after that many (solve() goes on, one call each)
         take = min(int(max_impacts), DROP_CAPACITY)
         announce("contact")
+        rules = _k.Rules(
+            float(energy_floor), float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT
+        )
         count, end, t, v, results, times, speeds, hists, rows = _k.impacts_explicit(
-            self.mass, self.stiffness, self._beta_inf, self.gravity, self.exponent,
-            self.dissipation, self.viscous_time,
-            _kernel_yield(
-                self.yield_penetration, self.mass, self.stiffness, self.gravity,
-                self._beta_inf, float(speed),
-            ),
-            0.0, self.rtol * TOLERANCE_SAFETY,
-            method == "auto", float(speed), float(start), float(energy_floor),
-            float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT,
+            self._lumped(self._beta_inf, float(speed), 0.0), self.rtol * TOLERANCE_SAFETY,
+            method == "auto", float(speed), float(start), rules,
         )  # fmt: skip
         ending = _k.BOUNCE_ENDS[end]
         if ending == "max-impacts" and take < max_impacts:
@@ -420,16 +408,27 @@ class ContactSolver:
         """:meth:`solve` on checked floats: the admittance ``beta`` (m/(N s)), the speed
         ``v_in`` and the surface's velocity ``v_free`` (m/s); ``method`` (None: the solver's)
         is unused by a shell law, whose integrator is its own."""
-        m, K, g = self.mass, self.stiffness, self.gravity
         tol = self.rtol * TOLERANCE_SAFETY
-        delta_y = _kernel_yield(self.yield_penetration, m, K, g, beta, v_in + v_free)
         if self.shell is not None:
-            return solve_shell(m, self.shell, beta, v_in, g, v_free, tol, self.n_points)
-        r, hist = _k.impact(
-            m, K, beta, v_in, g, self.exponent, self.dissipation, self.viscous_time, delta_y,
-            v_free, tol, _METHODS[method or self.method],
-        )  # fmt: skip
+            return solve_shell(
+                self.mass, self.shell, beta, v_in, self.gravity, v_free, tol, self.n_points
+            )
+        L = self._lumped(beta, v_in, v_free)
+        r, hist = _k.impact(L, v_in, tol, _METHODS[method or self.method])
         return _result(r.tolist(), hist, self.exponent, self.n_points)
+
+    def _lumped(self, beta: float, v_in: float, v_free: float):
+        """The kernels' :data:`~.contact_kernels.Lumped` parameters at the admittance ``beta``
+        (m/(N s)), the speed ``v_in`` and the surface's velocity ``v_free`` (m/s)."""
+        m, K, g = self.mass, self.stiffness, self.gravity
+        # None where no impact approached at v0 or slower can reach the yield penetration
+        # (contact_kernels.yield_reachable): numba then runs the kernels compiled without it
+        delta_y = self.yield_penetration
+        if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v_in + v_free):
+            delta_y = None
+        return _k.Lumped(
+            m, K, self.exponent, beta, g, self.dissipation, self.viscous_time, delta_y, v_free
+        )
 
     def _solve_at(self, x: float, y: float, v_in: float, v_free: float) -> ImpactResult:
         """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of

@@ -42,23 +42,18 @@ def _energy_message(residual: float) -> str:
 
 
 class DenseOutput(NamedTuple):
-    """The solver's dense output of one contact, for sampling the pulse afterwards: the
-    kernels' step history, the integrator (``radau``), the dimensionless parameters (``lam``,
-    ``G``, ``n``, losses ``c`` and ``b``, end of contact ``s_contact``, yield penetration
-    ``xy``, None: elastic) and the scales (``theta``, s; ``f_scale``, N)."""
+    """The solver's dense output of one contact, for sampling the pulse afterwards (the pulse
+    kernels' one argument): the kernels' step history, the integrator (``radau``), the
+    dimensionless ``law`` (``contact_kernels.equations.Law``), the end of contact
+    ``s_contact`` and the scales (``theta``, s; ``f_scale``, N)."""
 
     hist: np.ndarray
     radau: bool
-    lam: float
-    G: float
-    n: float
-    c: float
-    b: float
+    law: tuple
     s_contact: float
     theta: float
     f_scale: float
     n_points: int
-    xy: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,14 +106,14 @@ class ImpactResult:
         """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
         rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
         separation."""
-        return self._dense.n
+        return self._dense.law.n
 
     @property
     def pulse_order(self) -> float:
         """Exponent ``q`` of the trapezoid rule's error ``C h^q`` on the pulse (the modal bank
         extrapolates with it): ``n + 1``; ``3/2`` with the viscoelastic loss (``t^(1/2)``)."""
         d = self._dense
-        if d is not None and d.b != 0.0:
+        if d is not None and d.law.b != 0.0:
             return 1.5
         return self.exponent + 1.0
 
@@ -127,10 +122,7 @@ class ImpactResult:
         d = self._dense
         times = np.empty(d.n_points)
         forces = np.empty(d.n_points)
-        _k.pulse(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact,
-            self.status == _eq.SEPARATED, d.theta, d.f_scale, times, forces,
-        )  # fmt: skip
+        _k.pulse(d, self.status == _eq.SEPARATED, times, forces)
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
@@ -160,11 +152,7 @@ class ImpactResult:
     def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
         """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, in one compiled
         call on the Hertz-family dense output."""
-        d = self._dense
-        _k.pulse_force_slope(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact, d.theta, d.f_scale,
-            step, points, offset, period, samples, out,
-        )  # fmt: skip
+        _k.pulse_force_slope(self._dense, step, points, offset, period, samples, out)
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
@@ -179,9 +167,7 @@ class ImpactResult:
         """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
         times ``s`` (s / theta): the dense output's, scaled to SI units."""
         d = self._dense
-        _k.force_slope_at(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact, s, out, slope
-        )
+        _k.force_slope_at(d, s, out, slope)
         out *= d.f_scale
         slope *= d.f_scale / d.theta
 

@@ -58,10 +58,7 @@ class ShellImpactResult(ImpactResult):
         d = self._dense
         s = np.linspace(0.0, d.s_contact, d.n_points)
         forces = np.empty(d.n_points)
-        slopes = np.empty(d.n_points)
-        _shell.shell_force_slope(
-            d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, forces, slopes
-        )
+        _shell.shell_force_slope(d, s, forces, np.empty(d.n_points))
         if self.status != _eq.SEPARATED:
             forces[-1] = _shell_force_at_end(d)
         times = s * d.theta
@@ -81,9 +78,7 @@ class ShellImpactResult(ImpactResult):
 
     def _force_and_slope(self, s, out, slope) -> None:
         d = self._dense
-        _shell.shell_force_slope(
-            d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, out, slope
-        )
+        _shell.shell_force_slope(d, s, out, slope)
         out *= d.f_scale
         slope *= d.f_scale / d.theta
 

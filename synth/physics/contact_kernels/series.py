@@ -170,7 +170,7 @@ def half_series_start(rtol, S, s_max):
 
 
 @compiled()
-def series_coefficients(lam, G, n, c, b, S):
+def series_coefficients(P, S):
     """Coefficients of the solution at first touch as a series in s and s^n; with the
     viscoelastic loss (b > 0), in s^(1/2) (``half_series_coefficients``).
 
@@ -192,8 +192,9 @@ def series_coefficients(lam, G, n, c, b, S):
     Hertz and power laws: F = A. Hunt-Crossley: F = A (1 + c W) R with
     R = 1 / (1 + c lam b A). Each coefficient needs only lower degrees, so one pass in
     order of j, then i, gives them all, exactly. Fills ``S``: X, W, A, F, X (n+1) (i + j n),
-    and for Hunt-Crossley R and A (1 + c W).
+    and for Hunt-Crossley R and A (1 + c W). ``P``: the law (``equations.Law``).
     """
+    lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     if b != 0.0:
         half_series_coefficients(lam, G, c, b, S)
         return
@@ -270,7 +271,7 @@ def series_eval(S, s, n, b):
 
 
 @compiled()
-def series_start(lam, G, n, c, b, rtol, S, s_max):
+def series_start(P, rtol, S, s_max):
     """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over: at
     ``s1`` where the truncation error ``e(s) = sum_band (|X[i, j]| + |W[i, j]|) s^(i + j n)``
     (the terms of the last ``n + 1`` degrees, which hold every chain's leading term) reaches
@@ -278,7 +279,8 @@ def series_start(lam, G, n, c, b, rtol, S, s_max):
     ``SERIES_MAX_TIME`` and ``s_max`` (before a yield). Returns (s1, x, w, I2, L) at s1, the
     quadratures term by term. With the viscoelastic loss: ``half_series_start``.
     """
-    series_coefficients(lam, G, n, c, b, S)
+    series_coefficients(P, S)
+    n, c, b = P.n, P.c, P.b
     if b != 0.0:
         return half_series_start(rtol, S, s_max)
     band = SERIES_DEGREE - n - 1.0

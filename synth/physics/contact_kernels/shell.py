@@ -27,7 +27,7 @@ from synth.physics.contact_kernels.equations import (
     SETTLED,
     STEP_TOO_SMALL,
 )
-from synth.physics.contact_kernels.outcome import R_XT, impact_row
+from synth.physics.contact_kernels.outcome import R_XT, End, Scales, impact_row
 
 S_T0, S_H, S_X0, S_W0, S_DX0, S_DW0, S_X1, S_W1, S_DX1, S_DW1 = range(10)
 S_COLS = 10
@@ -339,11 +339,9 @@ def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
                                 lam, rR, xt, rg, a, 0))  # fmt: skip
     f_max = max(vf, _golden_max(hist, nh, hist[kf, S_T0], _row_end(hist, nh, kf, s_contact),
                                 lam, rR, xt, rg, a, 1))  # fmt: skip
-    f_scale = m * v0 / theta
-    r = impact_row(
-        status, w_end, x_end, shell_potential(x_end, rR, xt, rg), s_end, s_force, s_contact, i2,
-        loss, x_max * L, f_max, nh, m, v_in, v0, theta, lam, G, f_scale,
-    )  # fmt: skip
+    e = End(status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh)
+    sc = Scales(m, v_in, v0, theta, lam, G, m * v0 / theta)
+    r = impact_row(e, shell_potential(x_end, rR, xt, rg), sc)
     r[R_XT] = xt
     return r, hist
 
@@ -356,16 +354,18 @@ def _row_end(hist, nh, k, s_contact):
 
 
 @compiled()
-def shell_force_slope(hist, lam, G, rR, xt, rg, a, s_contact, s, out, slope):
+def shell_force_slope(d, s, out, slope):
     """The force ``f`` and its rate ``df/ds`` (dimensionless) at the times ``s`` into
-    ``out`` and ``slope``, 0 outside ``(0, s_contact)``: on the dense state, with
+    ``out`` and ``slope``, 0 outside ``(0, s_contact)``, of the dense output ``d``
+    (``contact_shell.ShellDense``): on the dense state, with
     ``x' = w - lam f``, ``w' = G - f`` and ``f = N / D``, ``N = f_e + a k_s w``,
     ``D = 1 + a k_s lam``: ``f' = (N' - f D') / D``, ``N' = (k_s + r_g) x' + a (k_s' w +
     k_s w')``, ``D' = a lam k_s'``, ``k_s' = -k_s x' / (2 x)`` past the transition, else 0."""
+    hist, lam, G, rR, xt, rg, a = d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a
     nh = hist.shape[0]
     for i in range(s.shape[0]):
         si = s[i]
-        if si <= 0.0 or si >= s_contact:
+        if si <= 0.0 or si >= d.s_contact:
             out[i] = 0.0
             slope[i] = 0.0
             continue
