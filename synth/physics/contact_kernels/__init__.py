@@ -44,11 +44,10 @@ from synth.physics.contact_kernels.equations import (
     SETTLED,
     Law,
     elastic_terms,
+    jacobian,
     law_force,
     penetration_rate,
     potential,
-    power,
-    yield_law,
     yield_value,
 )
 from synth.physics.contact_kernels.outcome import (
@@ -83,6 +82,11 @@ ABSOLUTE_FACTOR = 1e-6
 EXPLICIT_STEP_LIMIT = 20_000
 #: Steps before the implicit method reports failure.
 IMPLICIT_STEP_LIMIT = 200_000
+
+#: Columns of :func:`impacts_explicit`'s results past the result array: an impact's start
+#: (s) and speed (m/s).
+R_T1 = N_RESULT
+R_V1 = N_RESULT + 1
 
 # Integrator choice of ``impact``.
 AUTO = 0
@@ -145,42 +149,53 @@ def finish(out, D):
     # force before the contact
     if status == SEPARATED and (P.c != 0.0 or P.b != 0.0 or yield_value(P.xy) != math.inf):
         s_force = min(force_end(D, nh), s_contact)
-    # peak penetration and force: bracket by step ends, refine on the dense output
+    x_max = peak_penetration(D, nh)
+    f_max = peak_force(D, nh, x_max, s_contact)
+    end = End(status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1)
+    return end, hist[:nh]
+
+
+@compiled()
+def peak_penetration(D, nh):
+    """The largest penetration of the dense output ``D`` (its first ``nh`` rows): bracketed
+    by the step starts, refined where ``x' = w - lam f`` changes sign in the step before or
+    after the largest."""
+    hist = D.hist
+    ibest = 0
+    for k in range(nh):
+        if hist[k, H_X0] > hist[ibest, H_X0]:
+            ibest = k
+    x_max = hist[ibest, H_X0]
+    for k in range(max(ibest - 1, 0), ibest + 1):
+        xm = hist[k, H_XM]
+        xe, we = dense_state(D, k, hist[k, H_T0] + hist[k, H_H])
+        rising = penetration_rate(D.P, hist[k, H_X0], hist[k, H_W0], xm) > 0.0
+        if rising and penetration_rate(D.P, xe, we, xm) <= 0.0:
+            xr, _ = dense_state(D, k, event_root(D, k, PEAK_PENETRATION, 0.0))
+            x_max = max(x_max, xr)
+    return x_max
+
+
+@compiled()
+def peak_force(D, nh, x_max, s_contact):
+    """The largest force of the dense output ``D``: the elastic force at the peak
+    penetration ``x_max`` without a loss; else bracketed by the step starts and refined by
+    golden-section search up to ``s_contact``."""
+    P = D.P
+    if P.c == 0.0 and P.b == 0.0:
+        return elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
+    hist = D.hist
     ibest = 0
     vbest = -1.0
     for k in range(nh):
-        if hist[k, H_X0] > vbest:
-            vbest = hist[k, H_X0]
+        fk, _ = law_force(P, hist[k, H_X0], hist[k, H_W0], hist[k, H_XM])
+        if fk > vbest:
+            vbest = fk
             ibest = k
-    # the maximum is where x' = w - lam f changes sign: in the step before or after
-    # the largest step start
-    x_max = vbest
-    for k in (ibest - 1, ibest):
-        if k < 0 or k >= nh:
-            continue
-        xm = hist[k, H_XM]
-        g0 = penetration_rate(P, hist[k, H_X0], hist[k, H_W0], xm)
-        xe, we = dense_state(D, k, hist[k, H_T0] + hist[k, H_H])
-        if g0 > 0.0 and penetration_rate(P, xe, we, xm) <= 0.0:
-            xr, _ = dense_state(D, k, event_root(D, k, PEAK_PENETRATION, 0.0))
-            x_max = max(x_max, xr)
-    if P.c == 0.0 and P.b == 0.0:
-        f_max = elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
-    else:
-        ibest = 0
-        vbest = -1.0
-        for k in range(nh):
-            fk, _ = law_force(P, hist[k, H_X0], hist[k, H_W0], hist[k, H_XM])
-            if fk > vbest:
-                vbest = fk
-                ibest = k
-        lo = hist[max(ibest - 1, 0), H_T0]
-        hi = min(hist[ibest, H_T0] + hist[ibest, H_H], s_contact)
-        if ibest + 1 < nh:
-            hi = min(hist[ibest + 1, H_T0] + hist[ibest + 1, H_H], s_contact)
-        f_max = max(golden_max(D, nh, lo, hi, 1), vbest)
-    end = End(status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1)
-    return end, hist[:nh]
+    lo = hist[max(ibest - 1, 0), H_T0]
+    j = min(ibest + 1, nh - 1)
+    hi = min(hist[j, H_T0] + hist[j, H_H], s_contact)
+    return max(golden_max(D, nh, lo, hi, 1), vbest)
 
 
 @compiled()
@@ -254,20 +269,15 @@ def _copy_rows(source, start, stop, target, at):
 
 
 @compiled(inline="always")
-def _grown(results, times, speeds, rows, used, size):
+def _grown(results, rows, used, size):
     """Copies of :func:`impacts_explicit`'s arrays for ``size`` impacts, the first ``used``
     kept (``rows`` one longer)."""
     grown = np.empty((size, results.shape[1]))
     _copy_rows(results, 0, used, grown, 0)
-    t = np.empty(size)
-    v = np.empty(size)
     r = np.zeros(size + 1, dtype=np.int64)
-    for i in range(used):
-        t[i] = times[i]
-        v[i] = speeds[i]
+    for i in range(used + 1):
         r[i] = rows[i]
-    r[used] = rows[used]
-    return grown, t, v, r
+    return grown, r
 
 
 @compiled()
@@ -277,16 +287,15 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
     (``max_impacts = 1``: ``impact``'s explicit path). The first at ``v1`` (m/s) starts at
     ``t1`` (s). Handed over (``END_HANDED_OVER``) before an impact for Radau IIA (``auto``)
     or whose contact time reaches ``rules.tau_edge`` (s). Returns ``(count, end, t, v,
-    results, times, speeds, hists, rows)``: the :data:`BOUNCE_ENDS` index, start (s) and
-    speed (m/s) of the impact handed over, the results, starts and speeds, and the dense
-    outputs, impact ``i``'s in ``hists[rows[i]:rows[i + 1]]``."""
+    results, hists, rows)``: the :data:`BOUNCE_ENDS` index, start (s) and speed (m/s) of the
+    impact handed over, the results with each impact's start and speed in the columns
+    ``R_T1`` and ``R_V1``, and the dense outputs, impact ``i``'s in ``hists[rows[i]:rows[i +
+    1]]``."""
     max_impacts = rules.max_impacts
     # grown by doubling up to max_impacts: a drop's impacts are not known in advance, and
     # arrays of max_impacts rows would hold megabytes for a series of a few impacts
     capacity = min(max_impacts, 64)
-    results = np.empty((capacity, N_RESULT))
-    times = np.empty(capacity)
-    speeds = np.empty(capacity)
+    results = np.empty((capacity, R_V1 + 1))
     rows = np.zeros(capacity + 1, dtype=np.int64)
     hists = np.empty((64, H_COLS))
     count = 0
@@ -314,7 +323,7 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
             break
         if count == results.shape[0]:
             capacity = min(2 * capacity, max_impacts)
-            results, times, speeds, rows = _grown(results, times, speeds, rows, count, capacity)
+            results, rows = _grown(results, rows, count, capacity)
         # element by element: a slice assignment compiles numba's shape-mismatch error
         # path (message formatting), seconds of first-use compile for nothing
         first = rows[count]
@@ -327,8 +336,8 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
         rows[count + 1] = top
         for j in range(N_RESULT):
             results[count, j] = r[j]
-        times[count] = t
-        speeds[count] = v
+        results[count, R_T1] = t
+        results[count, R_V1] = v
         count += 1
         v_out = r[R_REBOUND_SPEED]
         code, t = bounce_end(
@@ -339,10 +348,7 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
             end = code
             break
         v = v_out
-    return (
-        count, end, t, v, results[:count], times[:count], speeds[:count], hists[: rows[count]],
-        rows,
-    )  # fmt: skip
+    return count, end, t, v, results[:count], hists[: rows[count]], rows
 
 
 #: The rules of a single impact (:func:`impact`).
@@ -358,11 +364,11 @@ def impact(L, v_in, rtol, method):
     hist)``: the fields ``R_*`` and the dense output."""
     if method != RADAU:
         announce("contact")
-        count, _, _, _, results, _, _, hists, _ = impacts_explicit(
+        count, _, _, _, results, hists, _ = impacts_explicit(
             L, rtol, method == AUTO, v_in, 0.0, ONE_IMPACT
         )
         if count:
-            return results[0], hists
+            return results[0, :N_RESULT], hists
     announce("stiff-contact")
     return impact_implicit(L, v_in, rtol)
 
@@ -466,18 +472,10 @@ def pulse_force_slope(d, step, points, offset, period, samples, out):
 def force_slope_at(d, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense output
     ``d`` (``contact_result.DenseOutput``), 0 outside ``[0, s_contact]``, into ``out``; its
-    rate of change ``df/ds`` into ``slope``.
-
-    ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
-    ``a' = n x^(n-1) x'``, ``r = x^(1/2)``, ``r' = x' / (2 r)``. Hertz and power laws:
-    ``f' = a'``. With a loss: ``f = N / D``, ``N = a (1 + c w) + b r w``, ``D = 1 + c lam a
-    + b lam r``, so ``f' = (a' (1 + c w) + a c w' + b (r' w + r w')) / D - f lam (c a' +
-    b r') / D`` (0 where f is clipped at 0); with a yield ``a`` and ``r`` are
-    ``equations.yield_law``'s, ``a' = a_x x'`` and ``r' = r_x x'``.
-    """
+    rate ``df/ds = f_x x' + f_w w'`` into ``slope``, by ``equations.jacobian`` (0 where f is
+    clipped at 0)."""
     P = d.law
-    lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
-    S = new_series(b)
+    S = new_series(P.b)
     series_coefficients(P, S)
     D = Dense(d.hist, S, d.radau, P)
     nh = d.hist.shape[0]
@@ -490,32 +488,10 @@ def force_slope_at(d, s, out, slope):
         k = find_step(d.hist, nh, si)
         x, w = dense_state(D, k, si)
         xm = d.hist[k, H_XM]
-        f, a = law_force(P, x, w, xm)
+        f = law_force(P, x, w, xm)[0]
         out[i] = f
         if x <= 0.0 or f <= 0.0:
             slope[i] = 0.0
             continue
-        dx, da, r, dr = _rates(x, w, f, lam, n, P.xy, xm)
-        if c == 0.0 and b == 0.0:
-            slope[i] = da
-        elif b == 0.0:
-            D_ = 1.0 + c * lam * a
-            slope[i] = (da * (1.0 + c * w) + a * c * (G - f)) / D_ - f * c * lam * da / D_
-        else:
-            D_ = 1.0 + c * lam * a + b * lam * r
-            N_rate = da * (1.0 + c * w) + a * c * (G - f) + b * (dr * w + r * (G - f))
-            slope[i] = (N_rate - f * lam * (c * da + b * dr)) / D_
-
-
-@compiled()
-def _rates(x, w, f, lam, n, xy, xm):
-    """``force_slope_at``'s ``(x', a', r, r')``: the penetration rate, the rates of the
-    elastic force ``a`` and of the viscous factor ``r`` (``equations.yield_law``'s with a
-    finite yield penetration ``xy``), and ``r``."""
-    dx = w - lam * f
-    if xy is not None:
-        if xy != math.inf:
-            _, r, ax, rx = yield_law(x, xy, xm)
-            return dx, ax * dx, r, rx * dx
-    r = math.sqrt(x)
-    return dx, n * power(x, n - 1.0) * dx, r, 0.5 * dx / r
+        _, _, fx, fw = jacobian(P, x, w, xm)  # -f_x, -f_w
+        slope[i] = -(fx * (w - P.lam * f) + fw * (P.G - f))

@@ -18,13 +18,12 @@ from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import (
     law_force,
     penetration_rate,
-    positive_power,
     power,
     settling_energy,
     unloading_branch,
     yield_law,
 )
-from synth.physics.contact_kernels.series import series_eval, series_x
+from synth.physics.contact_kernels.series import series_eval
 
 # Columns of the dense-output history, one row per accepted step (row 0: the series).
 H_T0, H_H, H_X0, H_W0 = 0, 1, 2, 3
@@ -312,49 +311,15 @@ def event_root(D, k, which, thr):
 @compiled()
 def sample_pulse(D, s_contact, times, forces):
     """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
-    and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is
-    evaluated step by step, in loops that the compiler vectorises, then raised to n
-    (a yield penetration, even inf, takes the general loop)."""
-    hist, S, P = D.hist, D.S, D.P
+    and ``forces``), step by step."""
+    hist = D.hist
     nh = hist.shape[0]
     n_points = times.shape[0]
     ds = s_contact / (n_points - 1)
+    k = 0
     for i in range(n_points):
         times[i] = i * ds
-    if D.radau or P.c != 0.0 or P.b != 0.0 or not is_none(P.xy):
-        k = 0
-        for i in range(n_points):
-            while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
-                k += 1
-            x, w = dense_state(D, k, times[i])
-            forces[i], _ = law_force(P, x, w, hist[k, H_XM])
-        return
-    i = 0
-    for k in range(nh):
-        i1 = n_points
-        if k + 1 < nh:
-            i1 = i
-            while i1 < n_points and times[i1] < hist[k + 1, H_T0]:
-                i1 += 1
-        if k == 0:
-            series_x(S, P.n, times[i:i1], forces[i:i1])
-        else:
-            t0 = hist[k, H_T0]
-            rh = 1.0 / hist[k, H_H]
-            x0 = hist[k, H_X0]
-            c0, c1, c2, c3, c4, c5, c6 = hist[k, H_COEF : H_COEF + 7]
-            for j in range(i, i1):
-                th = (times[j] - t0) * rh
-                u = 1.0 - th
-                # scipy's Dop853DenseOutput, Horner form (as in dense_state)
-                forces[j] = x0 + th * (
-                    c0 + u * (c1 + th * (c2 + u * (c3 + th * (c4 + u * (c5 + th * c6)))))
-                )
-        i = i1
-    positive_power(forces, P.n)
-
-
-@compiled()
-def is_none(xy):
-    """True if ``xy`` is None (a compile-time constant)."""
-    return xy is None
+        while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
+            k += 1
+        x, w = dense_state(D, k, times[i])
+        forces[i], _ = law_force(D.P, x, w, hist[k, H_XM])

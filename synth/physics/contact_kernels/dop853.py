@@ -200,29 +200,18 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         q2n = q2 + h * _weighted(_B, K, _NS, 2)
         q3n = q3 + h * _weighted(_B, K, _NS, 3)
         K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = rhs(P, xn, wn, xm)
-        # error estimate (scipy's DOP853 norm) on x, w and I2 (and the loss, see below)
-        e5x = _weighted(_E5, K, _NS + 1, 0)
-        e5w = _weighted(_E5, K, _NS + 1, 1)
-        e5q = _weighted(_E5, K, _NS + 1, 2)
-        e3x = _weighted(_E3, K, _NS + 1, 0)
-        e3w = _weighted(_E3, K, _NS + 1, 1)
-        e3q = _weighted(_E3, K, _NS + 1, 2)
-        scx = atol + rtol * max(x_top, abs(xn))
-        scw = atol + rtol * max(abs(w), abs(wn))
-        scq = atol + rtol * max(abs(q2), abs(q2n))
-        e5 = (e5x / scx) ** 2 + (e5w / scw) ** 2 + (e5q / scq) ** 2
-        e3 = (e3x / scx) ** 2 + (e3w / scw) ** 2 + (e3q / scq) ** 2
-        components = 3.0
-        if b != 0.0:
-            # The viscoelastic force falls to 0 before the end of contact, but the loss
-            # there, L' = -x^n x', ends like (tau - s)^n: its quadrature's error joins the
-            # norm, so that the landing steps are sized for it too.
-            e5l = _weighted(_E5, K, _NS + 1, 3)
-            e3l = _weighted(_E3, K, _NS + 1, 3)
-            scl = atol + rtol * max(abs(q3), abs(q3n))
-            e5 += (e5l / scl) ** 2
-            e3 += (e3l / scl) ** 2
-            components = 4.0
+        # error estimate (scipy's DOP853 norm) on x, w and I2; with the viscoelastic loss
+        # on L too: its force falls to 0 before the end of contact, but the loss there,
+        # L' = -x^n x', ends like (tau - s)^n, and the landing steps are sized for it too
+        components = 4.0 if b != 0.0 else 3.0
+        old = (x, w, q2, q3)
+        new = (xn, wn, q2n, q3n)
+        e5 = 0.0
+        e3 = 0.0
+        for q in range(int(components)):
+            sc = atol + rtol * (max(x_top, abs(xn)) if q == 0 else max(abs(old[q]), abs(new[q])))
+            e5 += (_weighted(_E5, K, _NS + 1, q) / sc) ** 2
+            e3 += (_weighted(_E3, K, _NS + 1, q) / sc) ** 2
         if e5 == 0.0 and e3 == 0.0:
             err = 0.0
         else:

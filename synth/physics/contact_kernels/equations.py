@@ -48,18 +48,6 @@ def power(x, n):
 
 
 @compiled()
-def positive_power(a, n):
-    """a <- max(a, 0)^n in place, the exponent tested once (so that the loop vectorises)."""
-    if n == 1.5:
-        for i in range(a.shape[0]):
-            v = max(a[i], 0.0)
-            a[i] = v * math.sqrt(v)
-    else:
-        for i in range(a.shape[0]):
-            a[i] = max(a[i], 0.0) ** n
-
-
-@compiled()
 def unloading_branch(xy, xm):
     """The elastic unloading of Thornton's contact from the largest penetration ``xm``
     past the yield penetration ``xy`` (docs/physics.md, "Yield of the contact"): the
