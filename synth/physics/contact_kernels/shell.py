@@ -192,7 +192,10 @@ def dp5_step(y, K, h, law, yn, err):
     """One Dormand-Prince 5(4) step of length ``h`` from ``y = (x, w, I2, L)`` with the
     slopes ``K[0]`` there: the new state into ``yn``, the stages into ``K`` (``K[6]``: the
     slopes at ``yn``) and the error estimates of the four into ``err``."""
-    for i in range(1, 7):
+    for q in range(4):  # (h a21) k1, as Dormand & Prince's second stage is written
+        yn[q] = y[q] + h * _A[1, 0] * K[0, q]
+    shell_rhs(yn, law, K[1])
+    for i in range(2, 7):
         for q in range(4):
             acc = _A[i, 0] * K[0, q]
             for j in range(1, i):
