@@ -47,9 +47,12 @@ class ContactCase:
 
 
 def _case(name, ball, plate, speed, gravity=GRAVITY, law="hertz", **kw):
-    K, n, mu = laws.contact_law(ball, plate, law, **kw)
+    c = laws.contact_parameters(ball, plate, law, **kw)
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
-    return ContactCase(name, ball.mass, K, beta, speed, gravity, n, mu)
+    return ContactCase(
+        name, ball.mass, c.stiffness, beta, speed, gravity, c.exponent, c.dissipation,
+        c.viscous_time,
+    )  # fmt: skip
 
 
 def contact_cases() -> list[ContactCase]:

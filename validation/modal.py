@@ -39,7 +39,7 @@ def modal_critical_distance(
     free edge, the distance at which the restitution stops rising, i.e. where, coming from the
     middle, it starts to fall (the thesis' definition, Table 3.3). The first local maximum of
     e on a grid of ``step`` (m), refined by a parabola through it and its neighbours.
-    ``contact_options`` as in :func:`synth.physics.contact_law.contact_law`, and ``theory`` (the
+    ``contact_options`` as in :func:`synth.physics.contact_law.contact_parameters`, and ``theory`` (the
     plate theory of :func:`synth.physics.modal_contact.modal_point`)."""
     walk = MidlineWalk(ball, plate, speed, **contact_options)
     e_at = walk.restitution

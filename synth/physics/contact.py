@@ -1,14 +1,10 @@
-"""One impact: a ball against a plate's local contact stiffness and its mechanical impedance,
-under the contact laws of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34,
-2.42; Hunt & Crossley 1975; the viscoelastic Hertz law of Kuwabara & Kono 1987 and
-Brilliantov et al. 1996). :func:`solve_contact` takes lumped parameters, :func:`solve_impact`
-a Ball, a Plate and a law; both return an :class:`ImpactResult`
-(:mod:`~synth.physics.contact_result`; the hollow ball's in
-:mod:`~synth.physics.contact_shell`), numerical trouble reported in ``success``, ``status``
-and ``message``. The kernels (:mod:`synth.physics.contact_kernels`) integrate the equations
-scaled by Zener's time and length by DOP853, or Radau IIA where the contact is stiff, to the
-local tolerance ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so
-that the global errors of restitution and contact time stay below ``rtol``."""
+"""One impact of a ball on a plate's contact stiffness and mechanical impedance, under the
+contact laws of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34, 2.42;
+Hunt & Crossley 1975; Kuwabara & Kono 1987; Brilliantov et al. 1996): :func:`solve_contact`
+from lumped parameters, :func:`solve_impact` from a Ball, a Plate and a law, both through
+:class:`ContactSolver`. The kernels integrate to the local tolerance ``rtol *``
+:data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so that the global errors of
+restitution and contact time stay below ``rtol``."""
 
 from __future__ import annotations
 
@@ -23,6 +19,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
+from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels import outcome as _o
 from synth.physics.contact_law import ShellLaw, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
@@ -31,10 +28,10 @@ from synth.physics.contact_result import (
     DenseOutput,
     ImpactResult,
     result_from_row,
+    solve_shell,
     with_message,
 )
-from synth.physics.contact_shell import ShellImpactResult as ShellImpactResult
-from synth.physics.contact_shell import solve_shell
+from synth.physics.contact_result import ShellImpactResult as ShellImpactResult
 from synth.physics.scene import Ball, Plate
 
 #: Local tolerance of the integrators relative to the requested ``rtol``.
@@ -49,7 +46,7 @@ DROP_CAPACITY = 100_000
 _INF = math.inf
 
 
-def solve_contact(
+def solve_contact(  # noqa: PLR0913 (the public keyword API)
     *,
     mass: float,
     stiffness: float,
@@ -124,9 +121,8 @@ def _approach(speed, v_free, field: str) -> tuple[float, float]:
 
 
 def check_law_fields(law) -> dict:
-    """The checked ``mass`` (kg), ``stiffness`` (N/m^n), ``exponent``, ``dissipation`` (s/m),
-    ``gravity`` (m/s^2), ``viscous_time`` (s) and ``yield_penetration`` (m) of a power law's
-    solver (:class:`ContactSolver`, :class:`~synth.physics.modal_contact.ModalContact`)."""
+    """The checked fields (SI units) of a power law's solver (:class:`ContactSolver`,
+    :class:`~synth.physics.modal_contact.ModalContact`)."""
     n = checks.in_range("exponent", law.exponent, 1.0, 4.0, "dimensionless", hi_open=False)
     A, dy = law.viscous_time, law.yield_penetration
     A_checked = checks.nonnegative("viscous_time", A, "s")
@@ -143,23 +139,14 @@ def check_law_fields(law) -> dict:
 
 
 def _hertz_only(name: str, value, checked: float, exponent: float, what: str) -> float:
-    """``checked``, field ``name``'s ``value`` checked, where it is off (0 or inf) or the law
-    the Hertz law (``exponent`` 1.5), else ``ParameterError``: ``what`` is the Hertz law's."""
+    """``checked`` where it is off (0 or inf) or the law is Hertz's (``exponent`` 1.5), else
+    ``ParameterError``: ``what`` (field ``name``) is the Hertz law's."""
     if checked not in (0.0, _INF) and exponent != 1.5:
         raise ParameterError(
             f"{name}={value!r} with exponent={exponent!r}: {what} applies to the Hertz "
             f"exponent 1.5 only"
         )
     return checked
-
-
-def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
-    """The yield penetration ``delta_y`` (m) for the kernels, or None where no impact
-    approached at ``v0`` (m/s) or slower can reach it (``contact_kernels.yield_reachable``):
-    numba then runs the kernels compiled without the yield."""
-    if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v0):
-        return None
-    return delta_y
 
 
 def check_points(n_points) -> int:
@@ -177,18 +164,18 @@ def check_points(n_points) -> int:
 
 
 def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
-    """The :class:`ImpactResult` of a power law's kernel result ``r`` (a list of floats,
-    fields ``R_*``) and dense output ``hist``."""
+    """The :class:`ImpactResult` of a power law's kernel result ``r`` (a list, fields ``R_*``)
+    and dense output ``hist``."""
     stiff = bool(r[_o.R_STIFF])
+    xy = None if r[_o.R_XY] == _INF else r[_o.R_XY]
+    law = _eq.Law(r[_o.R_INELASTICITY], r[_o.R_G], n, r[_o.R_C], r[_o.R_B], xy)
     dense = DenseOutput(
-        hist, stiff, r[_o.R_INELASTICITY], r[_o.R_G], n, r[_o.R_C], r[_o.R_B],
-        r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE], n_points,
-        None if r[_o.R_XY] == _INF else r[_o.R_XY],
-    )  # fmt: skip
+        hist, stiff, law, r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE], n_points
+    )
     return result_from_row(ImpactResult, r, "Radau" if stiff else "DOP853", dense)
 
 
-def solve_impact(
+def solve_impact(  # noqa: PLR0913 (the public keyword API)
     ball: Ball,
     plate: Plate,
     speed: float,
@@ -230,9 +217,8 @@ EDGE_ITERATIONS = 80
 class DropImpacts:
     """The impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
     their starts (``times``, s from release), speeds (m/s) and results, and how the series
-    ended (``end``: one of :data:`synth.physics.contact_kernels.BOUNCE_ENDS`;
-    ``"handed-over"``: the caller goes on with the impact at ``next_time``, s from release,
-    and ``next_speed``, m/s)."""
+    ended (one of :data:`synth.physics.contact_kernels.BOUNCE_ENDS`; ``"handed-over"``: the
+    caller goes on with the impact at ``next_time``, s, and ``next_speed``, m/s)."""
 
     times: tuple[float, ...]
     speeds: tuple[float, ...]
@@ -305,8 +291,8 @@ class ContactSolver:
 
     @classmethod
     def _unchecked(cls, **fields) -> ContactSolver:
-        """A solver without a plate of values already checked (:func:`solve_contact`'s):
-        building one by ``__init__`` would take a good part of the time an impact takes."""
+        """A solver without a plate of checked values (:func:`solve_contact`'s): ``__init__``
+        would take a good part of an impact's time."""
         solver = object.__new__(cls)
         solver.__dict__.update(
             plate=None, shell=None, yield_penetration=_INF, _beta_inf=None, **fields
@@ -326,9 +312,8 @@ class ContactSolver:
         method: str = "auto",
         **contact_options,
     ) -> ContactSolver:
-        """The solver of ``ball`` on ``plate`` under the contact ``law`` (its parameters in
-        ``contact_options``, see :func:`contact_parameters`; None: the ball's own law,
-        "shell" for a hollow ball, else "hertz"); gravity in m/s^2."""
+        """The solver of ``ball`` on ``plate`` under the contact ``law`` (None: the ball's own) with
+        ``contact_options`` (:func:`contact_parameters`); gravity in m/s^2."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
@@ -343,13 +328,12 @@ class ContactSolver:
         self, speed: float, start: float, *, position, energy_floor: float, max_duration: float,
         max_impacts: int,
     ) -> DropImpacts:  # fmt: skip
-        """The impacts of a drop on the plate's impedance in one compiled call
-        (:func:`~synth.physics.contact_kernels.impacts_explicit`): the first at ``speed`` (m/s)
-        ``start`` s after release, the next ones by the bounce scheduler's rules
-        (``energy_floor``, ``max_duration`` s, ``max_impacts``), each as :meth:`solve` at
-        ``position`` gives it. It stops before an impact :meth:`solve` must take (Radau IIA, an
-        edge's admittance) and takes none where the compiled series does not serve (a shell law,
-        no plate): :attr:`DropImpacts.end` is then ``"handed-over"``."""
+        """The impacts of a drop in one compiled call (:func:`~.contact_kernels.impacts_explicit`):
+        the first at ``speed`` (m/s) ``start`` s after release, the next ones by the bounce
+        scheduler's rules (``energy_floor``, ``max_duration`` s, ``max_impacts``), each as
+        :meth:`solve` at ``position`` gives it. It stops (``"handed-over"``) before an impact
+        :meth:`solve` must take (Radau IIA, an edge's admittance), at once for a shell law or
+        without a plate."""
         # as solve() takes them: the automatic choice of integrator at a position
         method = self.method if position is None else "auto"
         if self.shell is not None or method == "Radau" or self.plate is None:
@@ -365,16 +349,12 @@ class ContactSolver:
         # is handed over after that many (solve() goes on, one call each)
         take = min(int(max_impacts), DROP_CAPACITY)
         announce("contact")
-        count, end, t, v, results, times, speeds, hists, rows = _k.impacts_explicit(
-            self.mass, self.stiffness, self._beta_inf, self.gravity, self.exponent,
-            self.dissipation, self.viscous_time,
-            _kernel_yield(
-                self.yield_penetration, self.mass, self.stiffness, self.gravity,
-                self._beta_inf, float(speed),
-            ),
-            0.0, self.rtol * TOLERANCE_SAFETY,
-            method == "auto", float(speed), float(start), float(energy_floor),
-            float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT,
+        rules = _k.Rules(
+            float(energy_floor), float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT
+        )
+        count, end, t, v, results, hists, rows = _k.impacts_explicit(
+            self._lumped(self._beta_inf, float(speed), 0.0), self.rtol * TOLERANCE_SAFETY,
+            method == "auto", float(speed), float(start), rules,
         )  # fmt: skip
         ending = _k.BOUNCE_ENDS[end]
         if ending == "max-impacts" and take < max_impacts:
@@ -384,7 +364,8 @@ class ContactSolver:
             _result(r, hists[rows[i] : rows[i + 1]], self.exponent, self.n_points)
             for i, r in enumerate(results.tolist())
         )
-        return DropImpacts(tuple(times.tolist()), tuple(speeds.tolist()), solved, ending, t, v)
+        times, speeds = tuple(results[:, _k.R_T1].tolist()), tuple(results[:, _k.R_V1].tolist())
+        return DropImpacts(times, speeds, solved, ending, t, v)
 
     @property
     def infinite_admittance(self) -> float | None:
@@ -399,10 +380,10 @@ class ContactSolver:
         position=None,
         free_velocity: float = 0.0,
     ) -> ImpactResult:
-        """The impact at ``speed`` (m/s, downward). The admittance is ``admittance`` (m/(N s)) if
-        given; else, with ``position`` (m from a corner), the one near free edges
+        """The impact at ``speed`` (m/s, downward) at the ``admittance`` (m/(N s)) if given; else
+        at ``position`` (m from a corner) the one near free edges
         (:func:`synth.physics.impedance.point_admittance`); else the infinite plate's.
-        ``free_velocity``: the surface's velocity before the impact, m/s, positive upward."""
+        ``free_velocity``: the surface's velocity before the impact, m/s, upward."""
         v, v_free = _approach(speed, free_velocity, "free_velocity")
         if admittance is not None:
             if position is not None:
@@ -417,27 +398,36 @@ class ContactSolver:
         return self._solve_at(x, y, v, v_free)
 
     def _solve_beta(self, beta: float, v_in: float, v_free: float, method=None):
-        """:meth:`solve` on checked floats: the admittance ``beta`` (m/(N s)), the speed
-        ``v_in`` and the surface's velocity ``v_free`` (m/s); ``method`` (None: the solver's)
-        is unused by a shell law, whose integrator is its own."""
-        m, K, g = self.mass, self.stiffness, self.gravity
+        """:meth:`solve` on checked floats: the admittance ``beta`` (m/(N s)), speed ``v_in`` and
+        surface velocity ``v_free`` (m/s); ``method`` None: the solver's."""
         tol = self.rtol * TOLERANCE_SAFETY
-        delta_y = _kernel_yield(self.yield_penetration, m, K, g, beta, v_in + v_free)
         if self.shell is not None:
-            return solve_shell(m, self.shell, beta, v_in, g, v_free, tol, self.n_points)
-        r, hist = _k.impact(
-            m, K, beta, v_in, g, self.exponent, self.dissipation, self.viscous_time, delta_y,
-            v_free, tol, _METHODS[method or self.method],
-        )  # fmt: skip
+            return solve_shell(
+                self.mass, self.shell, beta, v_in, self.gravity, v_free, tol, self.n_points
+            )
+        L = self._lumped(beta, v_in, v_free)
+        r, hist = _k.impact(L, v_in, tol, _METHODS[method or self.method])
         return _result(r.tolist(), hist, self.exponent, self.n_points)
 
+    def _lumped(self, beta: float, v_in: float, v_free: float):
+        """The kernels' :data:`~.contact_kernels.Lumped` parameters at the admittance ``beta``
+        (m/(N s)), the speed ``v_in`` and the surface's velocity ``v_free`` (m/s)."""
+        m, K, g = self.mass, self.stiffness, self.gravity
+        # None where no impact approached at v0 or slower can reach the yield penetration
+        # (contact_kernels.yield_reachable): numba then runs the kernels compiled without it
+        delta_y = self.yield_penetration
+        if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v_in + v_free):
+            delta_y = None
+        return _k.Lumped(
+            m, K, self.exponent, beta, g, self.dissipation, self.viscous_time, delta_y, v_free
+        )
+
     def _solve_at(self, x: float, y: float, v_in: float, v_free: float) -> ImpactResult:
-        """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
+        """The impact at ``(x, y)`` (m, checked) at the admittance of
         :func:`synth.physics.impedance.point_admittance`: the root of ``A(tau(beta)) = beta``
-        (``A`` the edge blend, ``tau`` the contact time), at once far from the edges, else by
-        fixed-point iteration kept inside a bracket and replaced by bisection when it leaves
-        it or stalls, until ``|r| <= rtol beta / 10``; a jump of ``A(tau(beta))`` is
-        reported."""
+        (``tau`` the contact time), by fixed-point iteration kept inside a bracket, bisection when
+        it leaves it or stalls, to ``|r| <= rtol beta / 10``; a jump of ``A(tau(beta))`` is
+        reported in the message."""
         plate, beta_inf, tol = self.plate, self._beta_inf, self.rtol
         result = self._solve_beta(beta_inf, v_in, v_free, "auto")
         if plate.boundary != "free" or not result.success:

@@ -262,17 +262,19 @@ def _measured_law(ball: Ball, plate: Plate, surface: str) -> ContactLaw:
     return ContactLaw(K, 1.5, mu, A, yield_penetration=yield_penetration(ball, plate, K))
 
 
+#: The parameters of :func:`contact_parameters`, and those each named law requires.
+LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
+_REQUIRED = {
+    "hertz": (),
+    "hunt-crossley": ("dissipation",),
+    "viscoelastic": ("viscous_time",),
+    "elastic-foundation": (),
+    "power-law": ("exponent", "stiffness"),
+}
+
+
 def contact_parameters(
-    ball: Ball,
-    plate: Plate,
-    contact: str | None = "hertz",
-    *,
-    dissipation: float | None = None,
-    viscous_time: float | None = None,
-    exponent: float | None = None,
-    stiffness: float | None = None,
-    layer_depth: float | None = None,
-    surface: str = "ideal",
+    ball: Ball, plate: Plate, contact: str | None = "hertz", *, surface: str = "ideal", **options
 ) -> ContactLaw:
     """The constants of a named ``contact`` law (docs/physics.md, "Hertz contact"): one of
     :data:`~synth.physics.scene.CONTACT_LAWS`, None the ball's own (:func:`own_law`);
@@ -281,63 +283,59 @@ def contact_parameters(
     thesis' model); "fitted" ("hertz" only): the material's fitted surface
     (:func:`synth.physics.materials.contact_surface`), Hertz at its through-thickness
     modulus with its loss; "auto": the model closest to measurement
-    (:func:`resolved_surface`). Required by their law, refused by the others: Hunt-Crossley's
-    ``dissipation`` ``mu`` (s/m); the viscoelastic Hertz contact's ``viscous_time`` ``A``
-    (s) of ``F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara &
-    Kono 1987; Brilliantov et al. 1996); "power-law"'s ``exponent`` ``n`` in (1, 4] and
-    ``stiffness`` ``K_n`` (N/m^n); "elastic-foundation"'s Winkler ``layer_depth`` (m,
-    default: the plate's thickness)."""
+    (:func:`resolved_surface`). ``options`` (:data:`LAW_OPTIONS`), required by their law,
+    refused by the others: Hunt-Crossley's ``dissipation`` ``mu`` (s/m); the viscoelastic
+    Hertz contact's ``viscous_time`` ``A`` (s) of ``F = K (delta^(3/2) + (3/2) A
+    delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara & Kono 1987; Brilliantov et al. 1996);
+    "power-law"'s ``exponent`` ``n`` in (1, 4] and ``stiffness`` ``K_n`` (N/m^n);
+    "elastic-foundation"'s Winkler ``layer_depth`` (m, default: the plate's thickness)."""
+    for key in options:
+        checks.choice("contact parameter", key, LAW_OPTIONS)
+    given = {key: options.get(key) for key in LAW_OPTIONS}
     if contact is None:
         contact = own_law(ball)
     checks.choice("contact", contact, CONTACT_LAWS)
     checks.choice("surface", surface, SURFACE_MODELS)
     if isinstance(ball, HollowBall) or contact == "shell":
-        return _shell_parameters(ball, contact, surface, stiffness, dissipation, viscous_time,
-                                 exponent, layer_depth)  # fmt: skip
+        return _shell_parameters(ball, contact, surface, given)
     surface = resolved_surface(plate, contact, surface)
-    given = {
-        "dissipation": dissipation,
-        "viscous_time": viscous_time,
-        "exponent": exponent,
-        "stiffness": stiffness,
-        "layer_depth": layer_depth,
-    }
     if surface in ("fitted", "material"):
         _check_surface_alone(surface, contact, given)
         return _measured_law(ball, plate, surface)
-    allowed = {
-        "hertz": (),
-        "hunt-crossley": ("dissipation",),
-        "viscoelastic": ("viscous_time",),
-        "elastic-foundation": ("layer_depth",),
-        "power-law": ("exponent", "stiffness"),
-    }[contact]
+    allowed = _REQUIRED[contact] + (("layer_depth",) if contact == "elastic-foundation" else ())
     for key, value in given.items():
         if value is not None and key not in allowed:
             raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
-    if contact == "hertz":
-        return ContactLaw(hertz_stiffness(ball, plate), 1.5)
-    if contact == "hunt-crossley":
-        if dissipation is None:
-            raise ParameterError("contact='hunt-crossley' needs dissipation (mu, s/m, > 0)")
-        mu = checks.positive("dissipation", dissipation, "s/m")
-        return ContactLaw(hertz_stiffness(ball, plate), 1.5, mu)
-    if contact == "viscoelastic":
-        if viscous_time is None:
-            raise ParameterError("contact='viscoelastic' needs viscous_time (A, s, > 0)")
-        A = checks.positive("viscous_time", viscous_time, "s")
-        return ContactLaw(hertz_stiffness(ball, plate), 1.5, viscous_time=A)
+    missing = [key for key in _REQUIRED[contact] if given[key] is None]
+    if missing:
+        raise ParameterError(
+            f"contact={contact!r} needs {' and '.join(missing)} ({_NEEDS[contact]})"
+        )
     if contact == "elastic-foundation":
-        return ContactLaw(foundation_stiffness(ball, plate, layer_depth), 2.0)
-    if exponent is None or stiffness is None:
-        raise ParameterError("contact='power-law' needs exponent (n) and stiffness (K_n, N/m^n)")
+        return ContactLaw(foundation_stiffness(ball, plate, given["layer_depth"]), 2.0)
+    if contact == "power-law":
+        return ContactLaw(
+            checks.positive("stiffness", given["stiffness"], "N/m^n"),
+            checks.in_range(
+                "exponent", given["exponent"], 1.0, 4.0, "dimensionless", hi_open=False
+            ),
+        )
+    mu, A = given["dissipation"], given["viscous_time"]
     return ContactLaw(
-        checks.positive("stiffness", stiffness, "N/m^n"),
-        checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False),
-    )
+        hertz_stiffness(ball, plate), 1.5,
+        0.0 if mu is None else checks.positive("dissipation", mu, "s/m"),
+        0.0 if A is None else checks.positive("viscous_time", A, "s"),
+    )  # fmt: skip
 
 
-def _shell_parameters(ball, contact, surface, *given) -> ContactLaw:
+_NEEDS = {
+    "hunt-crossley": "mu, s/m, > 0",
+    "viscoelastic": "A, s, > 0",
+    "power-law": "n and K_n, N/m^n",
+}
+
+
+def _shell_parameters(ball, contact, surface, given: dict) -> ContactLaw:
     """:func:`contact_parameters` of the thin-shell law: a :class:`HollowBall` under
     ``contact="shell"`` and nothing else (its loss is its shell's own)."""
     if not isinstance(ball, HollowBall):
@@ -354,27 +352,13 @@ def _shell_parameters(ball, contact, surface, *given) -> ContactLaw:
             f"surface={surface!r} does not apply to contact='shell' (the shell carries its "
             f"own loss; allowed: 'ideal', 'auto')"
         )
-    if any(value is not None for value in given):
+    if any(value is not None for value in given.values()):
         raise ParameterError(
             "contact='shell' takes no law parameters (dissipation, viscous_time, exponent, "
             "stiffness, layer_depth): the shell's own geometry and material set them"
         )
     law = shell_law(ball)
     return ContactLaw(law.stiffness, 1.0, viscous_time=law.viscous_time, shell=law)
-
-
-def contact_law(
-    ball: Ball, plate: Plate, contact: str = "hertz", **options
-) -> tuple[float, float, float]:
-    """``(K, n, mu)`` (N/m^n, dimensionless, s/m) of a named contact law
-    (:func:`contact_parameters`); ``ParameterError`` for a law with a viscous time."""
-    law = contact_parameters(ball, plate, contact, **options)
-    if law.viscous_time != 0.0:
-        raise ParameterError(
-            f"contact={contact!r}: the viscoelastic law's viscous_time is not one of (K, n, mu); "
-            f"contact_parameters gives all of the law's constants"
-        )
-    return law.stiffness, law.exponent, law.dissipation
 
 
 #: Mean pressure of a fully plastic indentation by a sphere over the yield stress, the

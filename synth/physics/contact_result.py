@@ -1,6 +1,8 @@
 """The outcome of one impact: :class:`ImpactResult`, built by :func:`result_from_row` from
 a contact kernel's result array (``contact_kernels/outcome.py``) and dense output, from
-which the pulse is sampled on first access."""
+which the pulse is sampled on first access; the hollow ball's :class:`ShellImpactResult`
+and its solve (the thin-shell law of docs/physics.md, "Hollow balls", integrated by
+:func:`synth.physics.contact_kernels.shell.shell_impact`)."""
 
 from __future__ import annotations
 
@@ -14,6 +16,8 @@ from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels import outcome as _o
+from synth.physics.contact_kernels import shell as _shell
+from synth.physics.contact_law import ShellLaw
 
 _MESSAGES = {
     _eq.SEPARATED: "The ball separated from the plate.",
@@ -42,23 +46,18 @@ def _energy_message(residual: float) -> str:
 
 
 class DenseOutput(NamedTuple):
-    """The solver's dense output of one contact, for sampling the pulse afterwards: the
-    kernels' step history, the integrator (``radau``), the dimensionless parameters (``lam``,
-    ``G``, ``n``, losses ``c`` and ``b``, end of contact ``s_contact``, yield penetration
-    ``xy``, None: elastic) and the scales (``theta``, s; ``f_scale``, N)."""
+    """The solver's dense output of one contact, for sampling the pulse afterwards (the pulse
+    kernels' one argument): the kernels' step history, the integrator (``radau``), the
+    dimensionless ``law`` (``contact_kernels.equations.Law``), the end of contact
+    ``s_contact`` and the scales (``theta``, s; ``f_scale``, N)."""
 
     hist: np.ndarray
     radau: bool
-    lam: float
-    G: float
-    n: float
-    c: float
-    b: float
+    law: tuple
     s_contact: float
     theta: float
     f_scale: float
     n_points: int
-    xy: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,14 +110,14 @@ class ImpactResult:
         """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
         rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
         separation."""
-        return self._dense.n
+        return self._dense.law.n
 
     @property
     def pulse_order(self) -> float:
         """Exponent ``q`` of the trapezoid rule's error ``C h^q`` on the pulse (the modal bank
         extrapolates with it): ``n + 1``; ``3/2`` with the viscoelastic loss (``t^(1/2)``)."""
         d = self._dense
-        if d is not None and d.b != 0.0:
+        if d is not None and d.law.b != 0.0:
             return 1.5
         return self.exponent + 1.0
 
@@ -127,10 +126,7 @@ class ImpactResult:
         d = self._dense
         times = np.empty(d.n_points)
         forces = np.empty(d.n_points)
-        _k.pulse(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact,
-            self.status == _eq.SEPARATED, d.theta, d.f_scale, times, forces,
-        )  # fmt: skip
+        _k.pulse(d, self.status == _eq.SEPARATED, times, forces)
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
@@ -160,11 +156,7 @@ class ImpactResult:
     def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
         """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, in one compiled
         call on the Hertz-family dense output."""
-        d = self._dense
-        _k.pulse_force_slope(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact, d.theta, d.f_scale,
-            step, points, offset, period, samples, out,
-        )  # fmt: skip
+        _k.pulse_force_slope(self._dense, step, points, offset, period, samples, out)
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
@@ -179,9 +171,7 @@ class ImpactResult:
         """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
         times ``s`` (s / theta): the dense output's, scaled to SI units."""
         d = self._dense
-        _k.force_slope_at(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact, s, out, slope
-        )
+        _k.force_slope_at(d, s, out, slope)
         out *= d.f_scale
         slope *= d.f_scale / d.theta
 
@@ -225,3 +215,85 @@ def with_message(result: ImpactResult, message: str) -> ImpactResult:
     d["message"] = message
     object.__setattr__(obj, "__dict__", d)
     return obj
+
+
+class ShellDense(NamedTuple):
+    """The dense output of a thin-shell contact (:mod:`.contact_kernels.shell`): its
+    history, the dimensionless ``law`` (``contact_kernels.shell.Shell``), the end of contact
+    ``s_contact`` and the scales (``theta``, s; ``f_scale``, N)."""
+
+    hist: np.ndarray
+    law: tuple
+    s_contact: float
+    theta: float
+    f_scale: float
+    n_points: int
+
+
+class ShellImpactResult(ImpactResult):
+    """An :class:`ImpactResult` of the thin-shell law (a
+    :class:`~synth.physics.scene.HollowBall`): the same fields, its pulse from the shell
+    kernel's dense output."""
+
+    @property
+    def exponent(self) -> float:
+        """1: the shell law is linear at first touch (Reissner's stiffness and the gas')."""
+        return 1.0
+
+    @property
+    def pulse_order(self) -> float:
+        """``q`` of the trapezoid rule's error ``C h^q`` on the pulse: 2 for the lossless
+        shell (the force rises like ``t``), 1 with the Kelvin-Voigt loss (the force starts
+        with a step ``A k_R v``)."""
+        return 1.0 if self._dense.law.a != 0.0 else 2.0
+
+    def _sample_pulse(self):
+        d = self._dense
+        s = np.linspace(0.0, d.s_contact, d.n_points)
+        forces = np.empty(d.n_points)
+        _shell.shell_force_slope(d, s, forces, np.empty(d.n_points))
+        if self.status != _eq.SEPARATED:
+            forces[-1] = _shell_force_at_end(d)
+        times = s * d.theta
+        forces *= d.f_scale
+        self.__dict__.update(time=times, force=forces)
+        return times, forces
+
+    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
+        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, from the shell
+        kernel's dense output at the grid's times."""
+        total = points + samples
+        s = np.empty(total)
+        s[:points] = np.arange(points) * step
+        s[points:] = offset + np.arange(samples) * period
+        s /= self._dense.theta
+        self._force_and_slope(s, out[0, :total], out[1, :total])
+
+    def _force_and_slope(self, s, out, slope) -> None:
+        d = self._dense
+        _shell.shell_force_slope(d, s, out, slope)
+        out *= d.f_scale
+        slope *= d.f_scale / d.theta
+
+
+def _shell_force_at_end(d: ShellDense) -> float:
+    """The dimensionless force at the end of a settled contact's dense output."""
+    row = d.hist[-1]
+    return _shell.shell_force(row[_shell.S_X1], row[_shell.S_W1], d.law)[0]
+
+
+def solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, local_tol, n_points) -> ShellImpactResult:
+    """One impact of the thin-shell ``law`` (checked values, SI units; docs/physics.md,
+    "Hollow balls"), integrated by :func:`.contact_kernels.shell.shell_impact` to the local
+    tolerance ``local_tol`` (the contact's ``rtol`` times its safety factor)."""
+    k0 = law.stiffness
+    rR = law.reissner_stiffness / k0
+    r, hist = _shell.shell_impact(
+        m, k0, rR, law.transition, 1.0 - rR, law.viscous_time, beta, v_in, g, v_free, local_tol
+    )
+    r = r.tolist()
+    shell = _shell.Shell(
+        r[_o.R_INELASTICITY], r[_o.R_G], rR, r[_o.R_XT], 1.0 - rR, law.viscous_time / r[_o.R_THETA]
+    )
+    dense = ShellDense(hist, shell, r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE], n_points)
+    return result_from_row(ShellImpactResult, r, "DOPRI5", dense)

@@ -12,6 +12,7 @@ numba's cache keys a kernel on its own file: after editing one of these modules,
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -29,6 +30,7 @@ from synth.physics.contact_kernels.dense import (
     PEAK_PENETRATION,
     RADAU_STEPS,
     SETTLING,
+    Dense,
     dense_state,
     event_root,
     find_step,
@@ -40,12 +42,13 @@ from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
     SEPARATED,
     SETTLED,
-    elastic_part,
-    force,
+    Law,
+    elastic_terms,
+    jacobian,
+    law_force,
     penetration_rate,
-    power,
-    yield_law,
-    yield_potential,
+    potential,
+    yield_value,
 )
 from synth.physics.contact_kernels.outcome import (
     N_RESULT,
@@ -59,6 +62,8 @@ from synth.physics.contact_kernels.outcome import (
     R_STATUS,
     R_STIFF,
     R_XY,
+    End,
+    Scales,
     impact_row,
 )
 from synth.physics.contact_kernels.radau import integrate_radau
@@ -78,135 +83,134 @@ EXPLICIT_STEP_LIMIT = 20_000
 #: Steps before the implicit method reports failure.
 IMPLICIT_STEP_LIMIT = 200_000
 
+#: Columns of :func:`impacts_explicit`'s results past the result array: an impact's start
+#: (s) and speed (m/s).
+R_T1 = N_RESULT
+R_V1 = N_RESULT + 1
+
 # Integrator choice of ``impact``.
 AUTO = 0
 DOP853 = 1
 RADAU = 2
 
 
+#: The lumped parameters of an impact (SI units, ``impact``'s): the ball's mass ``m`` (kg),
+#: the law's stiffness ``K`` (N/m^n) and exponent ``n``, the admittance ``beta`` (m/(N s)),
+#: gravity ``g`` (m/s^2), Hunt-Crossley's ``mu`` (s/m), the viscous time ``A`` (s), the yield
+#: penetration ``delta_y`` (m; None: no yield, the kernels compiled without it) and the
+#: surface's velocity ``v_free`` (m/s, upward).
+Lumped = namedtuple("Lumped", ("m", "K", "n", "beta", "g", "mu", "A", "delta_y", "v_free"))
+#: The bounce scheduler's rules of :func:`impacts_explicit` (:func:`bounce_end`): the lowest
+#: kinetic energy relative to the first's, the end ``t_max`` (s), the most impacts; and its
+#: hand-over: at a contact time of ``tau_edge`` (s), or a failure above an energy residual
+#: of ``residual_limit``.
+Rules = namedtuple("Rules", ("energy_floor", "t_max", "max_impacts", "tau_edge", "residual_limit"))
+
+
 @compiled(inline="always")
-def start(lam, G, n, c, b, xy, rtol):
-    """The series start of a contact (``series.py``) and a new dense-output history whose
-    row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist). The series is of
-    the elastic law: it ends before the yield penetration ``xy`` (``x <= (1 + G) s``)."""
-    S = new_series(b)
-    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S, series_limit(xy, G))
+def solve(P, rtol, atol, max_steps, integrate, radau):
+    """One contact of the law ``P`` by ``integrate`` (``integrate_radau``, ``radau`` true,
+    or ``integrate_dop853``: a kernel compiles only the one it passes) from its series start
+    (``series.py``; the first step as long as the series' validity, like a step's): its
+    :func:`finish`."""
+    S = new_series(P.b)
+    # the series ends before the yield penetration xy (x <= (1 + G) s)
+    s_max = yield_value(P.xy) / (1.0 + P.G)
+    s1, x1, w1, i2, loss = series_start(P, rtol, S, s_max)
     # zeros, not empty: a row fills only its method's columns (row 0, the series, none of
     # the coefficients), and the history is returned whole; uninitialised columns would
     # carry whatever the heap held, which differs between processes
     hist = np.zeros((32, H_COLS))
-    hist[0, H_T0] = 0.0
     hist[0, H_H] = s1
-    hist[0, H_X0] = 0.0
     hist[0, H_W0] = 1.0
-    return S, s1, x1, w1, i2, loss, hist
+    out = integrate(P, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1)
+    return finish(out, Dense(out[8], S, radau, P))
 
 
 @compiled(inline="always")
-def solve_explicit(lam, G, n, c, b, xy, rtol, atol, max_steps):
-    """One contact by DOP853: its :func:`finish`."""
-    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, xy, rtol)
-    # The series' validity ends at s1 like a step's: the next step is of the same length.
-    st, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
-        lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
-    )
-    return finish(
-        st, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b, xy
-    )
-
-
-@compiled(inline="always")
-def solve_implicit(lam, G, n, c, b, xy, rtol, atol, max_steps):
-    """One contact by Radau IIA: its :func:`finish`."""
-    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, xy, rtol)
-    st, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
-        lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
-    )
-    return finish(
-        st, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b, xy
-    )
-
-
-@compiled(inline="always")
-def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b, xy):
-    """The end of contact, peak penetration and force of an integrated contact (``hist``
-    its dense output of ``nh`` rows, by Radau IIA if ``radau``; ``xy`` the yield
-    penetration). Returns (status, s_contact, s_force, s_end, w_end, x_end, I2, loss, x_max,
-    f_max, n_steps, n_rejected, hist), dimensionless: ``s_contact`` the time to separation
-    (or to the proof that the ball cannot separate), ``s_force`` the force pulse's end
-    (:func:`force_end`), ``s_end, w_end, x_end, I2, loss`` the state of the energy
-    balance, ``n_steps`` the accepted steps after the series start, ``hist`` the dense
-    output (row 0: the series, whose coefficients ``pulse`` recomputes)."""
+def finish(out, D):
+    """The end of contact, peak penetration and force of a contact integrated to ``out``
+    (the integrator's result) with the dense output ``D``: its :data:`~.outcome.End` and
+    the history's rows in use (row 0: the series, whose coefficients ``pulse`` recomputes).
+    ``s_force`` is the force pulse's end (:func:`force_end`)."""
+    status, s_end, x_end, w_end, i2, loss, nh, _, hist = out
+    P = D.P
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
-        s_end = event_root(hist, S, nh - 1, radau, END_OF_CONTACT, lam, G, n, c, b, xy, 0.0)
-        x_end, w_end = dense_state(hist, S, nh - 1, s_end, radau, n, b)
+        s_end = event_root(D, nh - 1, END_OF_CONTACT, 0.0)
+        w_end = dense_state(D, nh - 1, s_end)[1]
         x_end = 0.0
         s_contact = s_end
     elif status == SETTLED:
-        s_contact = event_root(
-            hist, S, nh - 1, radau, SETTLING, lam, G, n, c, b, xy, 0.5 * (lam * G) ** 2
-        )
+        s_contact = event_root(D, nh - 1, SETTLING, 0.5 * (P.lam * P.G) ** 2)
     s_force = s_contact
     # a loss, or a yield (the unloading force ends at the residual penetration), ends the
     # force before the contact
-    if status == SEPARATED and (c != 0.0 or b != 0.0 or yield_value(xy) != math.inf):
-        s_force = min(force_end(hist, S, nh, radau, lam, G, n, c, b, xy), s_contact)
-    # peak penetration and force: bracket by step ends, refine on the dense output
-    ibest = 0
-    vbest = -1.0
-    for k in range(nh):
-        if hist[k, H_X0] > vbest:
-            vbest = hist[k, H_X0]
-            ibest = k
-    # the maximum is where x' = w - lam f changes sign: in the step before or after
-    # the largest step start
-    x_max = vbest
-    for k in (ibest - 1, ibest):
-        if k < 0 or k >= nh:
-            continue
-        xm = hist[k, H_XM]
-        g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, xm)
-        xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n, b)
-        if g0 > 0.0 and penetration_rate(xe, we, lam, n, c, b, xy, xm) <= 0.0:
-            sr = event_root(hist, S, k, radau, PEAK_PENETRATION, lam, G, n, c, b, xy, 0.0)
-            xr, _ = dense_state(hist, S, k, sr, radau, n, b)
-            x_max = max(x_max, xr)
-    if c == 0.0 and b == 0.0:
-        f_max = elastic_part(x_max, n, xy, 0.0)[0] if x_max > 0.0 else 0.0
-    else:
-        ibest = 0
-        vbest = -1.0
-        for k in range(nh):
-            fk, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, hist[k, H_XM])
-            if fk > vbest:
-                vbest = fk
-                ibest = k
-        lo = hist[max(ibest - 1, 0), H_T0]
-        hi = min(hist[ibest, H_T0] + hist[ibest, H_H], s_contact)
-        if ibest + 1 < nh:
-            hi = min(hist[ibest + 1, H_T0] + hist[ibest + 1, H_H], s_contact)
-        f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, b, xy, 1), vbest)
-    return (
-        status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1, nrej,
-        hist[:nh],
-    )  # fmt: skip
+    if status == SEPARATED and (P.c != 0.0 or P.b != 0.0 or yield_value(P.xy) != math.inf):
+        s_force = min(force_end(D, nh), s_contact)
+    x_max = peak_penetration(D, nh)
+    f_max = peak_force(D, nh, x_max, s_contact)
+    end = End(status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1)
+    return end, hist[:nh]
 
 
 @compiled()
-def force_end(hist, S, nh, radau, lam, G, n, c, b, xy):
+def peak_penetration(D, nh):
+    """The largest penetration of the dense output ``D`` (its first ``nh`` rows): bracketed
+    by the step starts, refined where ``x' = w - lam f`` changes sign in the step before or
+    after the largest."""
+    hist = D.hist
+    ibest = 0
+    for k in range(nh):
+        if hist[k, H_X0] > hist[ibest, H_X0]:
+            ibest = k
+    x_max = hist[ibest, H_X0]
+    for k in range(max(ibest - 1, 0), ibest + 1):
+        xm = hist[k, H_XM]
+        xe, we = dense_state(D, k, hist[k, H_T0] + hist[k, H_H])
+        rising = penetration_rate(D.P, hist[k, H_X0], hist[k, H_W0], xm) > 0.0
+        if rising and penetration_rate(D.P, xe, we, xm) <= 0.0:
+            xr, _ = dense_state(D, k, event_root(D, k, PEAK_PENETRATION, 0.0))
+            x_max = max(x_max, xr)
+    return x_max
+
+
+@compiled()
+def peak_force(D, nh, x_max, s_contact):
+    """The largest force of the dense output ``D``: the elastic force at the peak
+    penetration ``x_max`` without a loss; else bracketed by the step starts and refined by
+    golden-section search up to ``s_contact``."""
+    P = D.P
+    if P.c == 0.0 and P.b == 0.0:
+        return elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
+    hist = D.hist
+    ibest = 0
+    vbest = -1.0
+    for k in range(nh):
+        fk, _ = law_force(P, hist[k, H_X0], hist[k, H_W0], hist[k, H_XM])
+        if fk > vbest:
+            vbest = fk
+            ibest = k
+    lo = hist[max(ibest - 1, 0), H_T0]
+    j = min(ibest + 1, nh - 1)
+    hi = min(hist[j, H_T0] + hist[j, H_H], s_contact)
+    return max(golden_max(D, nh, lo, hi, 1), vbest)
+
+
+@compiled()
+def force_end(D, nh):
     """The end of a lossy contact's force pulse (dimensionless): the last time the force falls
     to 0, before the penetration does (the ball moves apart from a surface still indented);
     located in the last step that starts with a positive force (row 0 if none). The step
     index is an int64, not a literal, so that ``event_root`` compiles once."""
+    hist = D.hist
     k = nh - 1
     while k > 0:
-        f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, hist[k, H_XM])
-        if f > 0.0:
+        if law_force(D.P, hist[k, H_X0], hist[k, H_W0], hist[k, H_XM])[0] > 0.0:
             break
         k -= 1
-    return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, xy, 0.0)
+    return event_root(D, k, FORCE_END, 0.0)
 
 
 #: How a bounce series ends (:func:`bounce_end`'s codes are indices into it; the names of
@@ -265,41 +269,33 @@ def _copy_rows(source, start, stop, target, at):
 
 
 @compiled(inline="always")
-def _grown(results, times, speeds, rows, used, size):
+def _grown(results, rows, used, size):
     """Copies of :func:`impacts_explicit`'s arrays for ``size`` impacts, the first ``used``
     kept (``rows`` one longer)."""
     grown = np.empty((size, results.shape[1]))
     _copy_rows(results, 0, used, grown, 0)
-    t = np.empty(size)
-    v = np.empty(size)
     r = np.zeros(size + 1, dtype=np.int64)
-    for i in range(used):
-        t[i] = times[i]
-        v[i] = speeds[i]
+    for i in range(used + 1):
         r[i] = rows[i]
-    r[used] = rows[used]
-    return grown, t, v, r
+    return grown, r
 
 
 @compiled()
-def impacts_explicit(
-    m, K, beta, g, n, mu, A, delta_y, v_free, rtol, auto, v1, t1, energy_floor, t_max,
-    max_impacts, tau_edge, residual_limit,
-):  # fmt: skip
-    """The impacts of a drop by DOP853, strung together by :func:`bounce_end` in one compiled
-    call (``max_impacts = 1``: ``impact``'s explicit path). The first at ``v1`` (m/s) starts
-    at ``t1`` (s); the other arguments as in ``impact`` and :func:`bounce_end`. Handed over
-    (``END_HANDED_OVER``) before an impact for Radau IIA or whose contact time reaches
-    ``tau_edge`` (s); a residual above ``residual_limit`` is a failure. Returns ``(count, end,
-    t, v, results, times, speeds, hists, rows)``: the :data:`BOUNCE_ENDS` index, start (s)
-    and speed (m/s) of the impact handed over, the results, starts and speeds, and the dense
-    outputs, impact ``i``'s in ``hists[rows[i]:rows[i + 1]]``."""
+def impacts_explicit(L, rtol, auto, v1, t1, rules):
+    """The impacts of a drop of the :data:`Lumped` parameters ``L`` by DOP853, strung together
+    by :func:`bounce_end` under the :data:`Rules` ``rules`` in one compiled call
+    (``max_impacts = 1``: ``impact``'s explicit path). The first at ``v1`` (m/s) starts at
+    ``t1`` (s). Handed over (``END_HANDED_OVER``) before an impact for Radau IIA (``auto``)
+    or whose contact time reaches ``rules.tau_edge`` (s). Returns ``(count, end, t, v,
+    results, hists, rows)``: the :data:`BOUNCE_ENDS` index, start (s) and speed (m/s) of the
+    impact handed over, the results with each impact's start and speed in the columns
+    ``R_T1`` and ``R_V1``, and the dense outputs, impact ``i``'s in ``hists[rows[i]:rows[i +
+    1]]``."""
+    max_impacts = rules.max_impacts
     # grown by doubling up to max_impacts: a drop's impacts are not known in advance, and
     # arrays of max_impacts rows would hold megabytes for a series of a few impacts
     capacity = min(max_impacts, 64)
-    results = np.empty((capacity, N_RESULT))
-    times = np.empty(capacity)
-    speeds = np.empty(capacity)
+    results = np.empty((capacity, R_V1 + 1))
     rows = np.zeros(capacity + 1, dtype=np.int64)
     hists = np.empty((64, H_COLS))
     count = 0
@@ -309,23 +305,25 @@ def impacts_explicit(
     while count < max_impacts:
         # the automatic choice takes Radau IIA above STIFF_LAMBDA, or where DOP853 reaches
         # its step limit: the caller's
-        v0, theta, lam, G, c, b, xy, f_scale = scales(m, K, beta, v, g, n, mu, A, delta_y, v_free)
-        if auto and lam > STIFF_LAMBDA:
+        P, sc = scales(L, v)
+        if auto and P.lam > STIFF_LAMBDA:
             end = END_HANDED_OVER
             break
-        out = solve_explicit(lam, G, n, c, b, xy, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT)
-        if auto and out[0] == MAX_STEPS:
+        e, hist = solve(
+            P, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT, integrate_dop853, DOP853_STEPS
+        )
+        if auto and e.status == MAX_STEPS:
             end = END_HANDED_OVER
             break
-        r, hist = result(out, DOP853_STEPS, m, v, v0, theta, lam, G, n, c, b, xy, f_scale)
+        r = result(e, P, sc, DOP853_STEPS)
         status = r[R_STATUS]
-        success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= residual_limit
-        if success and r[R_CONTACT_TIME] >= tau_edge:
+        success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= rules.residual_limit
+        if success and r[R_CONTACT_TIME] >= rules.tau_edge:
             end = END_HANDED_OVER
             break
         if count == results.shape[0]:
             capacity = min(2 * capacity, max_impacts)
-            results, times, speeds, rows = _grown(results, times, speeds, rows, count, capacity)
+            results, rows = _grown(results, rows, count, capacity)
         # element by element: a slice assignment compiles numba's shape-mismatch error
         # path (message formatting), seconds of first-use compile for nothing
         first = rows[count]
@@ -338,65 +336,64 @@ def impacts_explicit(
         rows[count + 1] = top
         for j in range(N_RESULT):
             results[count, j] = r[j]
-        times[count] = t
-        speeds[count] = v
+        results[count, R_T1] = t
+        results[count, R_V1] = v
         count += 1
-        settled = success and status == SETTLED
         v_out = r[R_REBOUND_SPEED]
         code, t = bounce_end(
-            t, v1, g, success, settled, r[R_RESTITUTION], v_out, r[R_SEPARATION_TIME],
-            energy_floor, t_max,
+            t, v1, L.g, success, success and status == SETTLED, r[R_RESTITUTION], v_out,
+            r[R_SEPARATION_TIME], rules.energy_floor, rules.t_max,
         )  # fmt: skip
         if code != NO_END:
             end = code
             break
         v = v_out
-    return (
-        count, end, t, v, results[:count], times[:count], speeds[:count], hists[: rows[count]],
-        rows,
-    )  # fmt: skip
+    return count, end, t, v, results[:count], hists[: rows[count]], rows
 
 
-def impact(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol, method):
-    """One impact from lumped parameters (SI units, checked): the equations scaled by Zener's
-    time ``theta`` and length ``theta v0`` (``v0 = v_in + v_free``), integrated by DOP853 or
-    Radau IIA (``method``: AUTO takes Radau above ``STIFF_LAMBDA`` or after
-    ``EXPLICIT_STEP_LIMIT`` explicit steps; two kernels, so a scene compiles only the one it
-    uses) to the local tolerance ``rtol``. ``delta_y``: the yield penetration (m), or None:
-    the elastic law, compiled without the yield. Returns ``(result, hist)``: the fields
-    ``R_*`` and the dense output."""
+#: The rules of a single impact (:func:`impact`).
+ONE_IMPACT = Rules(0.0, math.inf, 1, math.inf, math.inf)
+
+
+def impact(L, v_in, rtol, method):
+    """One impact of the :data:`Lumped` parameters ``L`` (checked) at ``v_in`` (m/s): the
+    equations scaled by Zener's time ``theta`` and length ``theta v0`` (``v0 = v_in +
+    v_free``), integrated by DOP853 or Radau IIA (``method``: AUTO takes Radau above
+    ``STIFF_LAMBDA`` or after ``EXPLICIT_STEP_LIMIT`` explicit steps; two kernels, so a scene
+    compiles only the one it uses) to the local tolerance ``rtol``. Returns ``(result,
+    hist)``: the fields ``R_*`` and the dense output."""
     if method != RADAU:
         announce("contact")
-        count, _, _, _, results, _, _, hists, _ = impacts_explicit(
-            m, K, beta, g, n, mu, A, delta_y, v_free, rtol, method == AUTO, v_in, 0.0, 0.0,
-            math.inf, 1, math.inf, math.inf,
-        )  # fmt: skip
+        count, _, _, _, results, hists, _ = impacts_explicit(
+            L, rtol, method == AUTO, v_in, 0.0, ONE_IMPACT
+        )
         if count:
-            return results[0], hists
+            return results[0, :N_RESULT], hists
     announce("stiff-contact")
-    return impact_implicit(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol)
+    return impact_implicit(L, v_in, rtol)
 
 
 @compiled(inline="always")
-def scales(m, K, beta, v_in, g, n, mu, A, delta_y, v_free):
-    """The scales of ``impact``: (v0, theta, lam, G, c, b, xy, f_scale)."""
-    v0 = v_in + v_free
-    theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
-    lam = beta * m / theta
-    G = g * theta / v0
-    c = mu * v0
-    b = 1.5 * A / theta
-    return v0, theta, lam, G, c, b, scaled_yield(delta_y, K, m, g, beta, v0, theta), m * v0 / theta
+def scales(L, v_in):
+    """The law (:data:`~.equations.Law`) and :data:`~.outcome.Scales` of an impact of ``L``
+    at ``v_in`` (m/s)."""
+    v0 = v_in + L.v_free
+    theta = (L.m / (L.K * v0 ** (L.n - 1.0))) ** (1.0 / (L.n + 1.0))
+    lam = L.beta * L.m / theta
+    G = L.g * theta / v0
+    xy = scaled_yield(L.delta_y, L, v0, theta)
+    P = Law(lam, G, L.n, L.mu * v0, 1.5 * L.A / theta, xy)
+    return P, Scales(L.m, v_in, v0, theta, lam, G, L.m * v0 / theta)
 
 
 @compiled()
-def scaled_yield(delta_y, K, m, g, beta, v0, theta):
-    """The yield penetration over the length scale ``theta v0`` (m over m): None without a
-    yield (``delta_y`` None, the kernels compiled without it), inf where this impact cannot
-    reach it (:func:`yield_reachable`)."""
+def scaled_yield(delta_y, L, v0, theta):
+    """The yield penetration ``delta_y`` over the length scale ``theta v0`` (m over m): None
+    without a yield (``delta_y`` None, the kernels compiled without it), inf where this
+    impact cannot reach it (:func:`yield_reachable`)."""
     if delta_y is None:
         return None
-    if not yield_reachable(delta_y, K, m, g, beta, v0):
+    if not yield_reachable(delta_y, L.K, L.m, L.g, L.beta, v0):
         return math.inf
     return delta_y / (theta * v0)
 
@@ -414,148 +411,87 @@ def yield_reachable(delta_y, K, m, g, beta, v0):
 
 
 @compiled()
-def impact_implicit(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol):
+def impact_implicit(L, v_in, rtol):
     """``impact`` by Radau IIA."""
-    v0, theta, lam, G, c, b, xy, f_scale = scales(m, K, beta, v_in, g, n, mu, A, delta_y, v_free)
+    P, sc = scales(L, v_in)
     atol = rtol * ABSOLUTE_FACTOR
-    out = solve_implicit(lam, G, n, c, b, xy, rtol, atol, IMPLICIT_STEP_LIMIT)
-    return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale)
+    e, hist = solve(P, rtol, atol, IMPLICIT_STEP_LIMIT, integrate_radau, RADAU_STEPS)
+    return result(e, P, sc, RADAU_STEPS), hist
 
 
 @compiled(inline="always")
-def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
-    """The result array of ``impact`` from :func:`finish`'s result ``out`` and the scales
-    (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields;
-    a yielded contact's on its unloading branch from the peak penetration)."""
-    status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
-    elastic = end_energy(x_end, n, xy, x_max)
-    r = impact_row(
-        status, w_end, x_end, elastic, s_end, s_force, s_contact, i2, loss, x_max * theta * v0,
-        f_max, nst, m, v_in, v0, theta, lam, G, f_scale,
-    )  # fmt: skip
+def result(e, P, sc, stiff):
+    """The result array of ``impact`` from :func:`finish`'s :data:`~.outcome.End` ``e``, the
+    law ``P`` and the scales ``sc`` (:func:`~.outcome.impact_row` with the law's elastic
+    energy, a yielded contact's on its unloading branch from the peak penetration)."""
+    xy = yield_value(P.xy)
+    r = impact_row(e, potential(e.x_end, P.n, P.xy, e.x_max if e.x_max > xy else 0.0), sc)
     r[R_STIFF] = 1.0 if stiff else 0.0
-    r[R_C] = c
-    r[R_B] = b
-    r[R_XY] = yield_value(xy)
-    return r, hist
+    r[R_C] = P.c
+    r[R_B] = P.b
+    r[R_XY] = xy
+    return r
 
 
 @compiled()
-def pulse(hist, radau, lam, G, n, c, b, xy, s_contact, separated, t_scale, f_scale, times, forces):
-    """The pulse of :func:`finish`'s dense output ``hist`` (same lam, G, n, c, b, xy) at
-    ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
-    ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
-    S = new_series(b)
-    series_coefficients(lam, G, n, c, b, S)
-    sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, b, xy, s_contact, times, forces)
-    times *= t_scale
-    forces *= f_scale
+def pulse(d, separated, times, forces):
+    """The pulse of the dense output ``d`` (``contact_result.DenseOutput``) at
+    ``len(times)`` uniform times over its contact, in s and N, into ``times`` and
+    ``forces``; the ends of a separated contact are 0."""
+    S = new_series(d.law.b)
+    series_coefficients(d.law, S)
+    sample_pulse(Dense(d.hist, S, d.radau, d.law), d.s_contact, times, forces)
+    times *= d.theta
+    forces *= d.f_scale
     if separated:
         forces[0] = 0.0
         forces[-1] = 0.0
 
 
 @compiled()
-def pulse_force_slope(
-    hist, radau, lam, G, n, c, b, xy, s_contact, theta, f_scale, step, points, offset, period,
-    samples, out,
-):  # fmt: skip
+def pulse_force_slope(d, step, points, offset, period, samples, out):
     """Force (N) and its rate (N/s) into ``out[0]`` and ``out[1]`` at the times ``j step`` (s,
     ``j < points``) and then ``offset + m period`` (s, ``m < samples``): :func:`force_slope_at`
-    scaled by ``theta`` (s) and ``f_scale`` (N), in one call without temporaries."""
+    in SI units, in one call without temporaries."""
     total = points + samples
     s = np.empty(total)
     for j in range(points):
-        s[j] = j * step / theta
+        s[j] = j * step / d.theta
     for m in range(samples):
-        s[points + m] = (offset + m * period) / theta
+        s[points + m] = (offset + m * period) / d.theta
     forces = out[0, :total]
     slopes = out[1, :total]
-    force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, forces, slopes)
-    rate = f_scale / theta
+    force_slope_at(d, s, forces, slopes)
+    rate = d.f_scale / d.theta
     for i in range(total):
-        forces[i] *= f_scale
+        forces[i] *= d.f_scale
         slopes[i] *= rate
 
 
 @compiled()
-def series_limit(xy, G):
-    """The latest end of the series start (dimensionless): before the yield penetration
-    ``xy`` (``x <= (1 + G) s``), inf without a yield (None)."""
-    if xy is None:
-        return math.inf
-    return xy / (1.0 + G)
-
-
-@compiled()
-def yield_value(xy):
-    """The yield penetration ``xy`` as a float: inf for None (no yield)."""
-    if xy is None:
-        return math.inf
-    return xy
-
-
-@compiled()
-def end_energy(x_end, n, xy, x_max):
-    """The elastic energy (dimensionless) at the end penetration ``x_end``: the power
-    law's, or a yielded contact's on its unloading branch from the peak ``x_max``."""
-    if xy is not None:
-        if xy != math.inf:
-            return yield_potential(x_end, xy, x_max if x_max > xy else 0.0)
-    return x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
-
-
-@compiled()
-def _rates(x, w, f, lam, n, xy, xm):
-    """``force_slope_at``'s ``(x', a', r, r')``: the penetration rate, the rates of the
-    elastic force ``a`` and of the viscous factor ``r`` (``equations.yield_law``'s with a
-    finite yield penetration ``xy``), and ``r``."""
-    dx = w - lam * f
-    if xy is not None:
-        if xy != math.inf:
-            _, r, ax, rx = yield_law(x, xy, xm)
-            return dx, ax * dx, r, rx * dx
-    r = math.sqrt(x)
-    return dx, n * power(x, n - 1.0) * dx, r, 0.5 * dx / r
-
-
-@compiled()
-def force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, out, slope):
-    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
-    output ``hist`` of :func:`finish` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
-    ``out``; its rate of change ``df/ds`` into ``slope``.
-
-    ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
-    ``a' = n x^(n-1) x'``, ``r = x^(1/2)``, ``r' = x' / (2 r)``. Hertz and power laws:
-    ``f' = a'``. With a loss: ``f = N / D``, ``N = a (1 + c w) + b r w``, ``D = 1 + c lam a
-    + b lam r``, so ``f' = (a' (1 + c w) + a c w' + b (r' w + r w')) / D - f lam (c a' +
-    b r') / D`` (0 where f is clipped at 0); with a yield ``a`` and ``r`` are
-    ``equations.yield_law``'s, ``a' = a_x x'`` and ``r' = r_x x'``.
-    """
-    S = new_series(b)
-    series_coefficients(lam, G, n, c, b, S)
-    nh = hist.shape[0]
+def force_slope_at(d, s, out, slope):
+    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense output
+    ``d`` (``contact_result.DenseOutput``), 0 outside ``[0, s_contact]``, into ``out``; its
+    rate ``df/ds = f_x x' + f_w w'`` into ``slope``, by ``equations.jacobian`` (0 where f is
+    clipped at 0)."""
+    P = d.law
+    S = new_series(P.b)
+    series_coefficients(P, S)
+    D = Dense(d.hist, S, d.radau, P)
+    nh = d.hist.shape[0]
     for i in range(s.shape[0]):
         si = s[i]
-        if si <= 0.0 or si >= s_contact:
+        if si <= 0.0 or si >= d.s_contact:
             out[i] = 0.0
             slope[i] = 0.0
             continue
-        k = find_step(hist, nh, si)
-        x, w = dense_state(hist, S, k, si, radau, n, b)
-        xm = hist[k, H_XM]
-        f, a = force(x, w, lam, n, c, b, xy, xm)
+        k = find_step(d.hist, nh, si)
+        x, w = dense_state(D, k, si)
+        xm = d.hist[k, H_XM]
+        f = law_force(P, x, w, xm)[0]
         out[i] = f
         if x <= 0.0 or f <= 0.0:
             slope[i] = 0.0
             continue
-        dx, da, r, dr = _rates(x, w, f, lam, n, xy, xm)
-        if c == 0.0 and b == 0.0:
-            slope[i] = da
-        elif b == 0.0:
-            D = 1.0 + c * lam * a
-            slope[i] = (da * (1.0 + c * w) + a * c * (G - f)) / D - f * c * lam * da / D
-        else:
-            D = 1.0 + c * lam * a + b * lam * r
-            N_rate = da * (1.0 + c * w) + a * c * (G - f) + b * (dr * w + r * (G - f))
-            slope[i] = (N_rate - f * lam * (c * da + b * dr)) / D
+        _, _, fx, fw = jacobian(P, x, w, xm)  # -f_x, -f_w
+        slope[i] = -(fx * (w - P.lam * f) + fw * (P.G - f))

@@ -10,26 +10,31 @@ and the pulse sampled; also the cubic Hermite tests that see the end of contact 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import (
-    force,
+    law_force,
     penetration_rate,
-    positive_power,
     power,
     settling_energy,
     unloading_branch,
     yield_law,
 )
-from synth.physics.contact_kernels.series import series_eval, series_x
+from synth.physics.contact_kernels.series import series_eval
 
 # Columns of the dense-output history, one row per accepted step (row 0: the series).
 H_T0, H_H, H_X0, H_W0 = 0, 1, 2, 3
 H_COEF = 4  # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
 H_XM = H_COEF + 14  # the largest penetration before the step (0 while loading), the yield's
 H_COLS = H_COEF + 15
+
+#: A contact's dense output, the events' and the pulse's one argument: the ``hist`` of its
+#: steps, the start series' coefficients ``S``, whether the steps are Radau IIA's (``radau``,
+#: else DOP853's) and the law ``P`` (``equations.Law``).
+Dense = namedtuple("Dense", ("hist", "S", "radau", "P"))
 
 
 @compiled()
@@ -103,7 +108,10 @@ def yield_fraction(x0, x1, d0, d1, xy, xm, xp):
     which the yielded contact's law changes (``equations.yield_law``): while it loads past
     the yield penetration ``xy`` (``xm`` 0), the peak of x (the root of the cubic Hermite
     interpolant's derivative), from which it unloads; while it unloads, the residual
-    penetration ``xp``, where the force ends. 1 if neither lies inside the step."""
+    penetration ``xp``, where the force ends. 1 if neither lies inside the step (or if
+    ``xy`` is None, no yield)."""
+    if xy is None:
+        return 1.0
     if xm == 0.0:
         if not (d0 > 0.0 and d1 < 0.0):
             return 1.0
@@ -138,11 +146,13 @@ def radau_dense(hist, k, s):
 
 
 @compiled()
-def dense_state(hist, S, k, s, radau, n, b):
-    """(x, w) at dimensionless time s inside step k of the history (step 0: the series)."""
+def dense_state(D, k, s):
+    """(x, w) at dimensionless time s inside step k of the dense output ``D`` (step 0: the
+    series)."""
+    hist = D.hist
     if k == 0:
-        return series_eval(S, s, n, b)
-    if radau:
+        return series_eval(D.S, s, D.P.n, D.P.b)
+    if D.radau:
         return radau_dense(hist, k, s)
     # DOP853 continuous extension (scipy's Dop853DenseOutput, Horner form)
     th = (s - hist[k, H_T0]) / hist[k, H_H]
@@ -177,25 +187,23 @@ def find_step(hist, nst, s):
 
 
 @compiled()
-def penetration_and_force(hist, S, nst, s, radau, lam, n, c, b, xy):
-    """(x, f) at time s from the dense output of the first ``nst`` rows of the history
-    (``xy``: the yield penetration, ``equations.force``)."""
-    k = find_step(hist, nst, s)
-    x, w = dense_state(hist, S, k, s, radau, n, b)
-    f, a = force(x, w, lam, n, c, b, xy, hist[k, H_XM])
-    return x, f
+def penetration_and_force(D, nst, s):
+    """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
+    k = find_step(D.hist, nst, s)
+    x, w = dense_state(D, k, s)
+    return x, law_force(D.P, x, w, D.hist[k, H_XM])[0]
 
 
 @compiled()
-def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, xy, which):
+def golden_max(D, nst, lo, hi, which):
     """Maximum of x (which=0) or f (which=1) over [lo, hi] by golden-section search."""
     g = 0.6180339887498949
     ta = lo
     tb = hi
     x1 = tb - g * (tb - ta)
     x2 = ta + g * (tb - ta)
-    v1 = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)[which]
-    v2 = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)[which]
+    v1 = penetration_and_force(D, nst, x1)[which]
+    v2 = penetration_and_force(D, nst, x2)[which]
     # The peak is quadratic: locating it to 1e-8 of its bracket gives the value to ~1e-16.
     for _ in range(80):
         if tb - ta <= 1e-8 * (hi - lo):
@@ -205,13 +213,13 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, xy, which):
             x1 = x2
             v1 = v2
             x2 = ta + g * (tb - ta)
-            v2 = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)[which]
+            v2 = penetration_and_force(D, nst, x2)[which]
         else:
             tb = x2
             x2 = x1
             v2 = v1
             x1 = tb - g * (tb - ta)
-            v1 = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)[which]
+            v1 = penetration_and_force(D, nst, x1)[which]
     return max(v1, v2)
 
 
@@ -230,43 +238,49 @@ FORCE_END = np.int64(3)
 
 
 @compiled()
-def event(which, x, w, lam, G, n, c, b, thr, xy, xm):
+def event(which, x, w, P, thr, xm):
     """The functions whose roots end or mark a contact: 0, the penetration x (end of
-    contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
-    docstring); 3, the numerator ``x^n (1 + c w) + b x^(1/2) w`` of the lossy force before
-    its clip at 0 (``equations.force``: its sign is the force's), or x where ``x <= 0``
-    (the end of the force pulse; with a yield the numerator of ``yield_law``'s, or ``x -
-    xp`` below the residual penetration ``xp``). ``xy``, ``xm``: the yield
-    (``equations.force``)."""
+    contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see
+    ``equations.py``); 3, the force's numerator (:func:`force_numerator`, the end of the
+    force pulse). ``xm``: the largest penetration so far (the yield)."""
     if which == 0:
         return x
     if which == 1:
-        return penetration_rate(x, w, lam, n, c, b, xy, xm)
+        return penetration_rate(P, x, w, xm)
     if which == 3:
-        if x <= 0.0:
-            return x
-        if xy is not None:
-            if xy != math.inf:
-                a, r, _, _ = yield_law(x, xy, xm)
-                if r == 0.0:
-                    return x - unloading_branch(xy, xm)[0]
-                return a * (1.0 + c * w) + b * r * w
-        return power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
-    return settling_energy(x, w, lam, G, n, xy, xm) - thr
+        return force_numerator(x, w, P.n, P.c, P.b, P.xy, xm)
+    return settling_energy(P, x, w, xm) - thr
 
 
 @compiled()
-def event_root(hist, S, k, radau, which, lam, G, n, c, b, xy, thr):
+def force_numerator(x, w, n, c, b, xy, xm):
+    """The numerator ``x^n (1 + c w) + b x^(1/2) w`` of the lossy force before its clip at 0
+    (``equations.force``: its sign is the force's), or x where ``x <= 0``; with a yield
+    ``xy`` the numerator of ``yield_law``'s, or ``x - xp`` below the residual penetration."""
+    if x <= 0.0:
+        return x
+    if xy is not None:
+        if xy != math.inf:
+            a, r, _, _ = yield_law(x, xy, xm)
+            if r == 0.0:
+                return x - unloading_branch(xy, xm)[0]
+            return a * (1.0 + c * w) + b * r * w
+    return power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
+
+
+@compiled()
+def event_root(D, k, which, thr):
     """Where the event function ``which`` falls through 0 inside step k (positive at the
     step's start, not positive at its end): Illinois (modified regula falsi) on the dense
-    output, to machine precision. If it is not positive at the start, the step's end.
-    ``xy``: the yield penetration (``equations.force``)."""
+    output ``D``, to machine precision. If it is not positive at the start, the step's end."""
+    hist = D.hist
+    P = D.P
     xm = hist[k, H_XM]
     ta = hist[k, H_T0]
     tb = ta + hist[k, H_H]
-    fa = event(which, hist[k, H_X0], hist[k, H_W0], lam, G, n, c, b, thr, xy, xm)
-    xb, wb = dense_state(hist, S, k, tb, radau, n, b)
-    fb = event(which, xb, wb, lam, G, n, c, b, thr, xy, xm)
+    fa = event(which, hist[k, H_X0], hist[k, H_W0], P, thr, xm)
+    xb, wb = dense_state(D, k, tb)
+    fb = event(which, xb, wb, P, thr, xm)
     if fa <= 0.0 or fb >= 0.0:
         return tb
     side = 0
@@ -274,8 +288,8 @@ def event_root(hist, S, k, radau, which, lam, G, n, c, b, xy, thr):
         m = (ta * fb - tb * fa) / (fb - fa)
         if not (ta < m < tb):
             m = 0.5 * (ta + tb)
-        xq, wq = dense_state(hist, S, k, m, radau, n, b)
-        fm = event(which, xq, wq, lam, G, n, c, b, thr, xy, xm)
+        xq, wq = dense_state(D, k, m)
+        fm = event(which, xq, wq, P, thr, xm)
         if fm > 0.0:
             ta, fa = m, fm
             if side == 1:
@@ -295,46 +309,17 @@ def event_root(hist, S, k, radau, which, lam, G, n, c, b, xy, thr):
 
 
 @compiled()
-def sample_pulse(hist, S, nh, radau, lam, n, c, b, xy, s_contact, times, forces):
+def sample_pulse(D, s_contact, times, forces):
     """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
-    and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is
-    evaluated step by step, in loops that the compiler vectorises, then raised to n.
-    ``xy``: the yield penetration (``equations.force``; a float takes the general loop)."""
+    and ``forces``), step by step."""
+    hist = D.hist
+    nh = hist.shape[0]
     n_points = times.shape[0]
     ds = s_contact / (n_points - 1)
+    k = 0
     for i in range(n_points):
         times[i] = i * ds
-    general = radau or c != 0.0 or b != 0.0
-    if xy is not None:
-        general = True
-    if general:
-        k = 0
-        for i in range(n_points):
-            while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
-                k += 1
-            x, w = dense_state(hist, S, k, times[i], radau, n, b)
-            forces[i], _ = force(x, w, lam, n, c, b, xy, hist[k, H_XM])
-        return
-    i = 0
-    for k in range(nh):
-        i1 = n_points
-        if k + 1 < nh:
-            i1 = i
-            while i1 < n_points and times[i1] < hist[k + 1, H_T0]:
-                i1 += 1
-        if k == 0:
-            series_x(S, n, times[i:i1], forces[i:i1])
-        else:
-            t0 = hist[k, H_T0]
-            rh = 1.0 / hist[k, H_H]
-            x0 = hist[k, H_X0]
-            c0, c1, c2, c3, c4, c5, c6 = hist[k, H_COEF : H_COEF + 7]
-            for j in range(i, i1):
-                th = (times[j] - t0) * rh
-                u = 1.0 - th
-                # scipy's Dop853DenseOutput, Horner form (as in dense_state)
-                forces[j] = x0 + th * (
-                    c0 + u * (c1 + th * (c2 + u * (c3 + th * (c4 + u * (c5 + th * c6)))))
-                )
-        i = i1
-    positive_power(forces, n)
+        while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
+            k += 1
+        x, w = dense_state(D, k, times[i])
+        forces[i], _ = law_force(D.P, x, w, hist[k, H_XM])

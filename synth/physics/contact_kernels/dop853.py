@@ -33,12 +33,11 @@ from synth.physics.contact_kernels.equations import (
     SEPARATED,
     SETTLED,
     STEP_TOO_SMALL,
-    plastic_work,
     power,
     rhs,
     rise_ended,
     settling_energy,
-    unloading_branch,
+    yielded_peak,
 )
 
 # --- DOP853 tableau (Hairer's coefficients, synth/physics/dop853_tableau.py) ------------
@@ -63,7 +62,7 @@ def end_force_factor(w, c, b):
 
 
 @compiled()
-def _time_to_end(x, w, dx, lam, G, n, c, b):
+def _time_to_end(x, w, dx, P):
     """Time left until the end of contact, predicted after a step that ends with x > 0
     moving apart (x' = dx < 0), and the separation speed v it implies; (inf, 0) if the
     ball still moves down.
@@ -79,10 +78,11 @@ def _time_to_end(x, w, dx, lam, G, n, c, b):
     are of relative order sigma^(n+1): the prediction is sharp where it matters, close
     to the end.
     """
+    lam, G, n = P.lam, P.G, P.n
     u = -w
     if u <= 0.0:
         return np.inf, 0.0
-    phi = end_force_factor(w, c, b)
+    phi = end_force_factor(w, P.c, P.b)
     un = phi * power(u, n)
     sig = x / -dx
     for _ in range(6):
@@ -148,7 +148,7 @@ def _weighted(weights, K, m, q):
 
 
 @compiled(inline="always")
-def _stage(A, row, K, i, x, w, h, lam, G, n, c, b, xy, xm):
+def _stage(A, row, K, i, x, w, h, P, xm):
     """Stage ``i`` of a step from ``(x, w)`` (its coefficients ``A[row]``) into ``K[i]``:
     only x and w enter the right-hand side (I2 and the loss are quadratures)."""
     a0 = 0.0
@@ -156,19 +156,20 @@ def _stage(A, row, K, i, x, w, h, lam, G, n, c, b, xy, xm):
     for j in range(i):
         a0 += A[row, j] * K[j, 0]
         a1 += A[row, j] * K[j, 1]
-    K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(x + h * a0, w + h * a1, lam, G, n, c, b, xy, xm)
+    K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(P, x + h * a0, w + h * a1, xm)
 
 
 @compiled()
-def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
-    """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
-    of the history ``hist`` (the series) filled in; ``xy`` the yield penetration (None or
-    inf: none, ``equations.force``). Returns (status, s_end, x, w, I2, L, n_rows, n_rejected,
-    hist), ``n_rows`` the rows of the history in use."""
+def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+    """DOP853 on (x, w, I2, L) of the law ``P`` (``equations.Law``) from time s with state
+    (x, w, q2, q3) and first step h, row 0 of the history ``hist`` (the series) filled in.
+    Returns (status, s_end, x, w, I2, L, n_rows, n_rejected, hist), ``n_rows`` the rows of
+    the history in use."""
+    lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
     xp = 0.0  # the residual penetration, where the unloading force ends
     K = np.empty((16, 4))
-    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c, b, xy, xm)
+    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(P, x, w, xm)
     nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
     nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
@@ -193,35 +194,24 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
             return STEP_TOO_SMALL, s, x, w, q2, q3, nst, nrej, hist
         # one DOP853 step
         for i in range(1, _NS):
-            _stage(_A, i, K, i, x, w, h, lam, G, n, c, b, xy, xm)
+            _stage(_A, i, K, i, x, w, h, P, xm)
         xn = x + h * _weighted(_B, K, _NS, 0)
         wn = w + h * _weighted(_B, K, _NS, 1)
         q2n = q2 + h * _weighted(_B, K, _NS, 2)
         q3n = q3 + h * _weighted(_B, K, _NS, 3)
-        K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = rhs(xn, wn, lam, G, n, c, b, xy, xm)
-        # error estimate (scipy's DOP853 norm) on x, w and I2 (and the loss, see below)
-        e5x = _weighted(_E5, K, _NS + 1, 0)
-        e5w = _weighted(_E5, K, _NS + 1, 1)
-        e5q = _weighted(_E5, K, _NS + 1, 2)
-        e3x = _weighted(_E3, K, _NS + 1, 0)
-        e3w = _weighted(_E3, K, _NS + 1, 1)
-        e3q = _weighted(_E3, K, _NS + 1, 2)
-        scx = atol + rtol * max(x_top, abs(xn))
-        scw = atol + rtol * max(abs(w), abs(wn))
-        scq = atol + rtol * max(abs(q2), abs(q2n))
-        e5 = (e5x / scx) ** 2 + (e5w / scw) ** 2 + (e5q / scq) ** 2
-        e3 = (e3x / scx) ** 2 + (e3w / scw) ** 2 + (e3q / scq) ** 2
-        components = 3.0
-        if b != 0.0:
-            # The viscoelastic force falls to 0 before the end of contact, but the loss
-            # there, L' = -x^n x', ends like (tau - s)^n: its quadrature's error joins the
-            # norm, so that the landing steps are sized for it too.
-            e5l = _weighted(_E5, K, _NS + 1, 3)
-            e3l = _weighted(_E3, K, _NS + 1, 3)
-            scl = atol + rtol * max(abs(q3), abs(q3n))
-            e5 += (e5l / scl) ** 2
-            e3 += (e3l / scl) ** 2
-            components = 4.0
+        K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = rhs(P, xn, wn, xm)
+        # error estimate (scipy's DOP853 norm) on x, w and I2; with the viscoelastic loss
+        # on L too: its force falls to 0 before the end of contact, but the loss there,
+        # L' = -x^n x', ends like (tau - s)^n, and the landing steps are sized for it too
+        components = 4.0 if b != 0.0 else 3.0
+        old = (x, w, q2, q3)
+        new = (xn, wn, q2n, q3n)
+        e5 = 0.0
+        e3 = 0.0
+        for q in range(int(components)):
+            sc = atol + rtol * (max(x_top, abs(xn)) if q == 0 else max(abs(old[q]), abs(new[q])))
+            e5 += (_weighted(_E5, K, _NS + 1, q) / sc) ** 2
+            e3 += (_weighted(_E3, K, _NS + 1, q) / sc) ** 2
         if e5 == 0.0 and e3 == 0.0:
             err = 0.0
         else:
@@ -263,8 +253,7 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
             # not to be trusted across that kink. Redo it to land just past the root
             # (cubic Hermite estimate), so that its stages see a smooth problem.
             th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
-        if xy is not None:
-            th = min(th, yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], xy, xm, xp))
+        th = min(th, yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], P.xy, xm, xp))
         if b != 0.0:
             # The viscoelastic force x^(1/2) (x (1 + c w) + b w) / D switches off (or on)
             # where its second factor changes sign, inside the contact: a kink of the same
@@ -282,7 +271,7 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
         # accepted: dense output coefficients for x and w
         hist = grow_history(hist, nst)
         for i in range(_NS + 1, 16):
-            _stage(_A_EXTRA, i - _NS - 1, K, i, x, w, h, lam, G, n, c, b, xy, xm)
+            _stage(_A_EXTRA, i - _NS - 1, K, i, x, w, h, P, xm)
         hist[nst, H_T0] = s
         hist[nst, H_XM] = xm
         hist[nst, H_H] = h
@@ -308,19 +297,13 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
         x_top = max(x_top, x)
         for q in range(4):
             K[0, q] = K[_NS, q]
-        if xy is not None:
-            if xm == 0.0 and x > xy and K[0, 0] <= 0.0:
-                # the step landed on a yielded peak: unload from it (force and contact
-                # radius are continuous there, so the first stage stands), its plastic
-                # work lost
-                xm = x
-                xp = unloading_branch(xy, xm)[0]
-                q3 += plastic_work(xy, xm)
+        # on a yielded peak the first stage stands: force and contact radius are continuous
+        xm, xp, q3 = yielded_peak(P.xy, x, K[0, 0], xm, xp, q3)
         if x <= 0.0:
             return SEPARATED, s, x, w, q2, q3, nst, nrej, hist
         if rise_ended(K[0, 0], w, atol):
             peaked = True
-        if settle and peaked and settling_energy(x, w, lam, G, n, xy, xm) < wthr:
+        if settle and peaked and settling_energy(P, x, w, xm) < wthr:
             return SETTLED, s, x, w, q2, q3, nst, nrej, hist
         fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
         if rejected:
@@ -338,7 +321,7 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
             sig = x / -K[0, 0]  # a first estimate, sharpened near the end
             reach = land_max
             if h >= 0.5 * sig:
-                sig, v = _time_to_end(x, w, K[0, 0], lam, G, n, c, b)
+                sig, v = _time_to_end(x, w, K[0, 0], P)
                 if kappa < 0.0:
                     kappa = _landing_factor(n)
                 size = (

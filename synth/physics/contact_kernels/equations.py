@@ -21,8 +21,14 @@ law's force and contact radius on the branch that the largest penetration so far
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 from synth.compilation import compiled
+
+#: The dimensionless law of one contact (module docstring), the kernels' one argument for it:
+#: ``lam``, ``G``, ``n``, the losses ``c`` and ``b``, the yield penetration ``xy`` (None: no
+#: yield, the kernels compiled without it; inf: not reached).
+Law = namedtuple("Law", ("lam", "G", "n", "c", "b", "xy"))
 
 # Status codes shared with synth.physics.contact.
 SEPARATED = 0
@@ -39,18 +45,6 @@ def power(x, n):
     if n == 2.0:
         return x * x
     return x**n
-
-
-@compiled()
-def positive_power(a, n):
-    """a <- max(a, 0)^n in place, the exponent tested once (so that the loop vectorises)."""
-    if n == 1.5:
-        for i in range(a.shape[0]):
-            v = max(a[i], 0.0)
-            a[i] = v * math.sqrt(v)
-    else:
-        for i in range(a.shape[0]):
-            a[i] = max(a[i], 0.0) ** n
 
 
 @compiled()
@@ -141,90 +135,65 @@ def yield_law_arrays(x, xy, xm, a, r, da, dr):
 
 
 @compiled()
-def elastic_part(x, n, xy, xm):
-    """``(a, r)``: the law's elastic force ``x^n`` (or :func:`yield_law`'s with a finite
-    yield penetration ``xy``; None: no yield) and the viscous factor ``x^(1/2)``, at ``x > 0``."""
+def elastic_terms(x, n, b, xy, xm):
+    """``(a, r, da, dr)`` at ``x > 0``: the law's elastic force ``x^n`` and viscous factor
+    ``x^(1/2)`` (0 without the viscoelastic loss ``b``) and their x-derivatives, or with a
+    finite yield penetration ``xy`` (``xm`` the largest penetration so far)
+    :func:`yield_law`'s. ``xy`` None: no yield, its code pruned at compile time (numba
+    prunes on an argument's type, so every branch on ``xy`` takes it as an argument)."""
     if xy is not None:
         if xy != math.inf:
-            a, r, _, _ = yield_law(x, xy, xm)
-            return a, r
-    return power(x, n), math.sqrt(x)
+            return yield_law(x, xy, xm)
+    a = power(x, n)
+    if b == 0.0:
+        return a, 0.0, n * a / x, 0.0
+    r = math.sqrt(x)
+    return a, r, n * a / x, 0.5 / r
 
 
 @compiled()
 def force(x, w, lam, n, c, b, xy=None, xm=0.0):
     """Dimensionless contact force f and its elastic part a (both 0 out of contact):
-    ``f = a + d(x) x'`` with the damping ``d = c a + b r`` (module docstring); ``a = x^n``
-    and ``r = x^(1/2)``, or with a finite yield penetration ``xy`` (the largest penetration
-    ``xm`` so far) :func:`yield_law`'s.
-
-    ``xy`` None: the elastic law, whose kernels numba compiles without the yield's code
-    (its branches pruned on the argument's type), as fast as a kernel without it;
-    a float (inf: not reached) compiles the kernels with it."""
+    ``f = max(0, (a (1 + c w) + b r w) / (1 + c lam a + b lam r))`` with ``a``, ``r`` of
+    :func:`elastic_terms` (the module docstring)."""
     if x <= 0.0:
         return 0.0, 0.0
-    if xy is not None:
-        if xy != math.inf:
-            a, r, _, _ = yield_law(x, xy, xm)
-            if c == 0.0 and b == 0.0:
-                return a, a
-            return lossy_force(a, r, w, lam, c, b), a
-    a = power(x, n)
+    a, r, _, _ = elastic_terms(x, n, b, xy, xm)
     if c == 0.0 and b == 0.0:
         return a, a
     num = a * (1.0 + c * w)
     den = 1.0 + c * lam * a
     if b != 0.0:
-        r = math.sqrt(x)
         num += b * r * w
         den += b * lam * r
     f = num / den
-    if f < 0.0:
-        f = 0.0
-    return f, a
+    return (f if f > 0.0 else 0.0), a
+
+
+@compiled(inline="always")
+def law_force(P, x, w, xm):
+    """:func:`force` of the law ``P`` (:data:`Law`)."""
+    return force(x, w, P.lam, P.n, P.c, P.b, P.xy, xm)
 
 
 @compiled()
-def lossy_force(a, r, w, lam, c, b):
-    """The lossy force ``(a (1 + c w) + b r w) / (1 + lam (c a + b r))``, at least 0, of the
-    elastic force ``a`` and the viscous factor ``r`` (:func:`force` with a yield)."""
-    f = (a * (1.0 + c * w) + b * r * w) / (1.0 + lam * (c * a + b * r))
-    return f if f > 0.0 else 0.0
+def rhs(P, x, w, xm):
+    """Right-hand side (x', w', I2', L') of the module docstring for the law ``P``."""
+    f, a = law_force(P, x, w, xm)
+    dx = w - P.lam * f
+    return dx, P.G - f, f * f, (f - a) * dx
 
 
 @compiled()
-def rhs(x, w, lam, G, n, c, b, xy, xm):  # noqa: PLR0913
-    """Right-hand side (x', w', I2', L') of the module docstring (``xy``, ``xm``: the
-    yield, :func:`force`)."""
-    f, a = force(x, w, lam, n, c, b, xy, xm)
-    dx = w - lam * f
-    return dx, G - f, f * f, (f - a) * dx
-
-
-@compiled()
-def jacobian(x, w, lam, n, c, b, xy, xm):
+def jacobian(P, x, w, xm):
     """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
 
-    With ``f = N / D`` (``N = a (1 + c w) + b r w``, ``D = 1 + lam (c a + b r)``, ``a = x^n``
-    and ``r = x^(1/2)`` or :func:`yield_law`'s): ``f_x = (N_x - f D_x) / D``, ``f_w = (c a
-    + b r) / D``; 0 where f is clipped at 0."""
+    With ``f = N / D`` (``N = a (1 + c w) + b r w``, ``D = 1 + lam (c a + b r)``):
+    ``f_x = (N_x - f D_x) / D``, ``f_w = (c a + b r) / D``; 0 where f is clipped at 0."""
     if x <= 0.0:
         return 0.0, 1.0, 0.0, 0.0
-    if xy is not None:
-        if xy != math.inf:
-            a, r, da, dr = yield_law(x, xy, xm)
-            return jacobian_terms(a, r, da, dr, w, lam, c, b)
-    a = power(x, n)
-    da = n * a / x
-    r = math.sqrt(x) if b != 0.0 else 0.0
-    dr = 0.5 / r if b != 0.0 else 0.0
-    return jacobian_terms(a, r, da, dr, w, lam, c, b)
-
-
-@compiled()
-def jacobian_terms(a, r, da, dr, w, lam, c, b):
-    """:func:`jacobian` from the elastic force ``a``, the viscous factor ``r`` and their
-    x-derivatives ``da``, ``dr``."""
+    a, r, da, dr = elastic_terms(x, P.n, P.b, P.xy, xm)
+    lam, c, b = P.lam, P.c, P.b
     if c == 0.0 and b == 0.0:
         fx, fw = da, 0.0
     elif b == 0.0:
@@ -247,16 +216,51 @@ def jacobian_terms(a, r, da, dr, w, lam, c, b):
 
 
 @compiled()
-def settling_energy(x, w, lam, G, n, xy, xm):
-    """Settling function W of the module docstring; with a yield (``xy``, ``xm``) the
-    elastic energy of :func:`yield_potential` and the height measured from the residual
-    penetration, where the force ends (the ball leaves from there)."""
-    u = lam * G - w
+def potential(x, n, xy, xm):
+    """The elastic energy (dimensionless) stored at ``x``: ``x^(n+1) / (n+1)``, or with a
+    finite yield penetration ``xy`` :func:`yield_potential` on the branch of ``xm``."""
     if xy is not None:
         if xy != math.inf:
-            xp = unloading_branch(xy, xm)[0] if xm > xy else 0.0
-            return 0.5 * u * u + yield_potential(x, xy, xm) - G * (x - xp)
-    return 0.5 * u * u + power(x, n) * x / (n + 1.0) - G * x if x > 0.0 else 0.5 * u * u
+            return yield_potential(x, xy, xm)
+    return x * power(x, n) / (n + 1.0) if x > 0.0 else 0.0
+
+
+@compiled()
+def residual_penetration(xy, xm):
+    """Where the unloading force from ``xm`` ends (:func:`unloading_branch`), 0 unyielded."""
+    if xy is not None:
+        if xm > xy:
+            return unloading_branch(xy, xm)[0]
+    return 0.0
+
+
+@compiled()
+def settling_energy(P, x, w, xm):
+    """Settling function W of the module docstring; with a yield the height is measured from
+    the residual penetration, where the force ends (the ball leaves from there)."""
+    u = P.lam * P.G - w
+    if x <= 0.0:
+        return 0.5 * u * u
+    return 0.5 * u * u + potential(x, P.n, P.xy, xm) - P.G * (x - residual_penetration(P.xy, xm))
+
+
+@compiled()
+def yield_value(xy):
+    """The yield penetration ``xy`` as a float: inf for None (no yield)."""
+    if xy is None:
+        return math.inf
+    return xy
+
+
+@compiled()
+def yielded_peak(xy, x, dx, xm, xp, loss):
+    """``(xm, xp, loss)`` after a step that ends at ``x`` with the rate ``dx``: at a peak past
+    the yield penetration ``xy`` the contact unloads from it (force and contact radius are
+    continuous there), its plastic work lost; else unchanged."""
+    if xy is not None:
+        if xm == 0.0 and x > xy and dx <= 0.0:
+            return x, unloading_branch(xy, x)[0], loss + plastic_work(xy, x)
+    return xm, xp, loss
 
 
 #: Machine epsilon of float64.
@@ -273,7 +277,6 @@ def rise_ended(dx, w, atol):
 
 
 @compiled()
-def penetration_rate(x, w, lam, n, c, b, xy, xm):
+def penetration_rate(P, x, w, xm):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
-    f, _ = force(x, w, lam, n, c, b, xy, xm)
-    return w - lam * f
+    return w - P.lam * law_force(P, x, w, xm)[0]

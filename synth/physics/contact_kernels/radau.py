@@ -29,13 +29,12 @@ from synth.physics.contact_kernels.equations import (
     SEPARATED,
     SETTLED,
     STEP_TOO_SMALL,
-    force,
     jacobian,
-    plastic_work,
+    law_force,
     rhs,
     rise_ended,
     settling_energy,
-    unloading_branch,
+    yielded_peak,
 )
 
 # --- Radau IIA (order 5) constants, as in scipy.integrate.Radau ------------------------
@@ -91,11 +90,12 @@ def _newton_rhs(F, Wt, q, mr, mc):
 
 
 @compiled()
-def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """3-stage Radau IIA on (x, w); I2 and the loss are its collocation quadratures.
 
     Arguments and result as ``integrate_dop853``'s (the yield's branch switched likewise).
     """
+    lam, G, c, b = P.lam, P.G, P.c, P.b
     xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
     xp = 0.0  # the residual penetration, where the unloading force ends
     y = np.array([x, w, q2, q3])
@@ -104,7 +104,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
     F = np.zeros((3, 2))
     fq = np.zeros((3, 2))  # f and (f - a) x' at the stages, for the quadratures
     f0 = np.empty(4)
-    f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b, xy, xm)
+    f0[0], f0[1], f0[2], f0[3] = rhs(P, y[0], y[1], xm)
     h_old = -1.0
     err_old = -1.0
     nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
@@ -114,7 +114,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
     peaked = False
     have_dense = False
     newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol**0.5))
-    j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
+    j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
     rejected = False
     while True:
         if nst > max_steps or not math.isfinite(s + h):
@@ -155,9 +155,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
             n_iter = it + 1
             ok = True
             for i in range(3):
-                F[i, 0], F[i, 1], _, _ = rhs(
-                    y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c, b, xy, xm
-                )
+                F[i, 0], F[i, 1], _, _ = rhs(P, y[0] + Z[i, 0], y[1] + Z[i, 1], xm)
                 if not (math.isfinite(F[i, 0]) and math.isfinite(F[i, 1])):
                     ok = False
             if not ok:
@@ -197,7 +195,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
             dw_old = dn
         if not converged:
             # refresh the Jacobian at the step start and halve the step
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
+            j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
             h *= 0.5
             nrej += 1
             rejected = True
@@ -211,7 +209,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
         s1 = atol + rtol * max(abs(y[1]), abs(wn))
         err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         if rejected and err > 1.0:
-            r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c, b, xy, xm)
+            r0, r1, _, _ = rhs(P, y[0] + e0, y[1] + e1, xm)
             e0, e1 = _solve2(ra, rb, rc_, rd, rdet, r0 + ze0, r1 + ze1)
             err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         safety = 0.9 * (2 * _NEWTON_MAXITER + 1) / (2 * _NEWTON_MAXITER + n_iter)
@@ -224,26 +222,23 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
             h *= max(0.2, safety * fac)
             nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
+            j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
             continue
-        if xn > 0.0 and hermite_dips(
-            y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]
-        ):
+        dxn = rhs(P, xn, wn, xm)[0]
+        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * dxn):
             # separated and landed again inside the step (see ``integrate_dop853``)
             h *= 0.5
             nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
+            j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
             continue
-        if xy is not None:
-            # land on the yielded peak or the end of the unloading force (``yield_fraction``)
-            dn = rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]
-            th = yield_fraction(y[0], xn, h * f0[0], h * dn, xy, xm, xp)
-            if th < 0.999:
-                h *= th * 1.0001 + 1e-9
-                nrej += 1
-                rejected = True
-                continue
+        # land on the yielded peak or the end of the unloading force (``yield_fraction``)
+        th = yield_fraction(y[0], xn, h * f0[0], h * dxn, P.xy, xm, xp)
+        if th < 0.999:
+            h *= th * 1.0001 + 1e-9
+            nrej += 1
+            rejected = True
+            continue
         # accepted
         hist = grow_history(hist, nst)
         hist[nst, H_T0] = s
@@ -258,7 +253,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
                 )
         # quadratures by the collocation rule (exact for the collocation polynomial)
         for i in range(3):
-            fi, ai = force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c, b, xy, xm)
+            fi, ai = law_force(P, y[0] + Z[i, 0], y[1] + Z[i, 1], xm)
             dxi = y[1] + Z[i, 1] - lam * fi
             fq[i, 0] = fi * fi
             fq[i, 1] = (fi - ai) * dxi
@@ -269,18 +264,13 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
         nst += 1
         s += h
         have_dense = True
-        f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b, xy, xm)
-        if xy is not None:
-            if xm == 0.0 and y[0] > xy and f0[0] <= 0.0:
-                # landed on a yielded peak (see ``integrate_dop853``)
-                xm = y[0]
-                xp = unloading_branch(xy, xm)[0]
-                y[3] += plastic_work(xy, xm)
+        f0[0], f0[1], f0[2], f0[3] = rhs(P, y[0], y[1], xm)
+        xm, xp, y[3] = yielded_peak(P.xy, y[0], f0[0], xm, xp, y[3])
         if y[0] <= 0.0:
             return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if rise_ended(f0[0], y[1], atol):  # past the peak or the end of a creep
             peaked = True
-        if settle and peaked and settling_energy(y[0], y[1], lam, G, n, xy, xm) < wthr:
+        if settle and peaked and settling_energy(P, y[0], y[1], xm) < wthr:
             return SETTLED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if h_old > 0.0 and err_old > 0.0 and err > 0.0:
             mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
@@ -294,5 +284,5 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
         h_old = h
         err_old = max(err, 1e-10)
         # the analytic 2x2 Jacobian is cheap: refresh it at every step
-        j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
+        j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
         h *= fac

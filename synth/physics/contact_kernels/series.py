@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from synth.compilation import compiled
-from synth.physics.contact_kernels.equations import positive_power, power
+from synth.physics.contact_kernels.equations import power
 
 #: Terms s^(i + j n) of the start series with i + j n <= this degree are kept.
 SERIES_DEGREE = 9.0
@@ -131,26 +131,10 @@ def half_series_start(rtol, S, s_max):
     estimate from the terms of its last ``HALF_SERIES_BAND`` degrees, and I2 = sum (F F)[k]
     2 s^((k+2)/2) / (k + 2) and L = sum ((F - s^(3/2) A) P)[k] 2 s^((k+2)/2) / (k + 2)
     (ds = 2 sigma dsigma), with the terms up to the degree of those of x."""
-    Y = S[0, 0]
-    W = S[1, 0]
     A = S[2, 0]
     F = S[3, 0]
     P = S[4, 0]
-    s1 = SERIES_MAX_TIME
-    for _ in range(30):
-        sg = math.sqrt(s1)
-        e = 0.0
-        de = 0.0
-        term_power = sg ** (HALF_SERIES_DEGREE - HALF_SERIES_BAND + 1)
-        for k in range(HALF_SERIES_DEGREE - HALF_SERIES_BAND + 1, HALF_SERIES_DEGREE + 1):
-            term = (abs(Y[k]) + abs(W[k])) * term_power
-            e += term
-            de += 0.5 * k * term
-            term_power *= sg
-        if e <= 1.01 * rtol:
-            break
-        s1 *= math.exp(-math.log(e / rtol) * e / de)
-    s1 = min(s1, s_max)
+    s1 = min(start_time(S, rtol, 1.5, 1.0), s_max)
     x1, w1 = half_series_eval(S, s1)
     sg = math.sqrt(s1)
     i2 = 0.0
@@ -170,7 +154,54 @@ def half_series_start(rtol, S, s_max):
 
 
 @compiled()
-def series_coefficients(lam, G, n, c, b, S):
+def start_time(S, rtol, n, b):
+    """Where the truncation error ``e(s)`` of the start series (coefficients ``S``; in
+    s^(1/2) with the viscoelastic loss ``b``) reaches ``rtol``, by Newton's method in log s
+    from ``SERIES_MAX_TIME`` down (e is convex there): see ``series_start``."""
+    s1 = SERIES_MAX_TIME
+    for _ in range(30):
+        e, de = truncation_error(S, s1, n, b)
+        if e <= 1.01 * rtol:
+            break
+        s1 *= math.exp(-math.log(e / rtol) * e / de)
+    return s1
+
+
+@compiled()
+def truncation_error(S, s1, n, b):
+    """``(e, s de/ds)`` at ``s1``: the terms of the last ``n + 1`` degrees of the series in
+    s and s^n, ``sum (|X[i, j]| + |W[i, j]|) s^(i + j n)``, which hold every chain's leading
+    term; with the viscoelastic loss (``b``), those of the last ``HALF_SERIES_BAND`` degrees
+    of the series in s^(1/2)."""
+    e = 0.0
+    de = 0.0
+    if b != 0.0:
+        sg = math.sqrt(s1)
+        term_power = sg ** (HALF_SERIES_DEGREE - HALF_SERIES_BAND + 1)
+        for k in range(HALF_SERIES_DEGREE - HALF_SERIES_BAND + 1, HALF_SERIES_DEGREE + 1):
+            term = (abs(S[0, 0, k]) + abs(S[1, 0, k])) * term_power
+            e += term
+            de += 0.5 * k * term
+            term_power *= sg
+        return e, de
+    band = SERIES_DEGREE - n - 1.0
+    b1 = power(s1, n)
+    bj = 1.0
+    for j in range(series_rows(n) + 1):
+        si = bj
+        for i in range(series_len(j, n) + 1):
+            d = i + j * n
+            if d > band:
+                term = (abs(S[0, i, j]) + abs(S[1, i, j])) * si
+                e += term
+                de += d * term
+            si *= s1
+        bj *= b1
+    return e, de
+
+
+@compiled()
+def series_coefficients(P, S):
     """Coefficients of the solution at first touch as a series in s and s^n; with the
     viscoelastic loss (b > 0), in s^(1/2) (``half_series_coefficients``).
 
@@ -192,8 +223,9 @@ def series_coefficients(lam, G, n, c, b, S):
     Hertz and power laws: F = A. Hunt-Crossley: F = A (1 + c W) R with
     R = 1 / (1 + c lam b A). Each coefficient needs only lower degrees, so one pass in
     order of j, then i, gives them all, exactly. Fills ``S``: X, W, A, F, X (n+1) (i + j n),
-    and for Hunt-Crossley R and A (1 + c W).
+    and for Hunt-Crossley R and A (1 + c W). ``P``: the law (``equations.Law``).
     """
+    lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     if b != 0.0:
         half_series_coefficients(lam, G, c, b, S)
         return
@@ -270,7 +302,7 @@ def series_eval(S, s, n, b):
 
 
 @compiled()
-def series_start(lam, G, n, c, b, rtol, S, s_max):
+def series_start(P, rtol, S, s_max):
     """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over: at
     ``s1`` where the truncation error ``e(s) = sum_band (|X[i, j]| + |W[i, j]|) s^(i + j n)``
     (the terms of the last ``n + 1`` degrees, which hold every chain's leading term) reaches
@@ -278,30 +310,11 @@ def series_start(lam, G, n, c, b, rtol, S, s_max):
     ``SERIES_MAX_TIME`` and ``s_max`` (before a yield). Returns (s1, x, w, I2, L) at s1, the
     quadratures term by term. With the viscoelastic loss: ``half_series_start``.
     """
-    series_coefficients(lam, G, n, c, b, S)
+    series_coefficients(P, S)
+    n, c, b = P.n, P.c, P.b
     if b != 0.0:
         return half_series_start(rtol, S, s_max)
-    band = SERIES_DEGREE - n - 1.0
-    s1 = SERIES_MAX_TIME
-    for _ in range(30):
-        b1 = power(s1, n)
-        e = 0.0
-        de = 0.0
-        bj = 1.0
-        for j in range(series_rows(n) + 1):
-            si = bj
-            for i in range(series_len(j, n) + 1):
-                d = i + j * n
-                if d > band:
-                    term = (abs(S[0, i, j]) + abs(S[1, i, j])) * si
-                    e += term
-                    de += d * term
-                si *= s1
-            bj *= b1
-        if e <= 1.01 * rtol:
-            break
-        s1 *= math.exp(-math.log(e / rtol) * e / de)
-    s1 = min(s1, s_max)
+    s1 = min(start_time(S, rtol, n, 0.0), s_max)
     x1, w1 = series_eval(S, s1, n, 0.0)
     # I2 = int f^2 = sum (F F)[i, j] s^(d + 2n + 1) / (d + 2n + 1) and
     # L = int b (F - A) x' = sum ((F - A) X')[i, j] s^(d + n + 1) / (d + n + 1),
@@ -335,25 +348,3 @@ def series_start(lam, G, n, c, b, rtol, S, s_max):
             si *= s1
         bj *= b1
     return s1, x1, w1, i2, loss
-
-
-@compiled()
-def series_x(S, n, s, out):
-    """x from the start series at the times ``s`` (into ``out``), all times at once."""
-    b = s.copy()
-    positive_power(b, n)
-    p = np.empty(s.shape[0])
-    out[:] = 0.0
-    jm = series_rows(n)
-    for jj in range(jm + 1):
-        j = jm - jj
-        im = series_len(j, n)
-        p[:] = 0.0
-        for ii in range(im + 1):
-            coef = S[0, im - ii, j]
-            for q in range(s.shape[0]):
-                p[q] = p[q] * s[q] + coef
-        for q in range(s.shape[0]):
-            out[q] = out[q] * b[q] + p[q]
-    for q in range(s.shape[0]):
-        out[q] *= s[q]
