@@ -22,7 +22,6 @@ from synth.bank.options import OPTIONS
 from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
 from synth.bank.spec.model import spec_integer
-from synth.store.reproducible import reproducible
 
 #: Rows a dry run times (spread over the plan): at least this many and the square root of
 #: the rows (rows differ in cost tenfold: the sampled mean's relative error falls as one
@@ -62,24 +61,16 @@ class Estimate:
         )
 
 
-@dataclass
-class BankResult:
-    """The outcome of :func:`run`: rows ``done`` now, ``skipped`` (complete), ``failed``
-    (``failures``), ``renamed``; ``orphans`` (audio files in neither the manifest nor the
-    plan, removed if ``pruned``); ``stopped`` why it stopped early; times in s, memory in
+@dataclass(kw_only=True)
+class BankResult(mf.Outcome):
+    """The outcome of :func:`run` (:class:`~synth.bank.manifest.Outcome`): of ``planned``
+    rows, ``failed`` (``failures``); ``stopped`` why it stopped early; times in s, memory in
     bytes; for a dry run ``estimated`` and ``planned_rows``."""
 
-    out_dir: Path
     planned: int
-    done: int = 0
-    skipped: int = 0
     failed: int = 0
     failures: list = field(default_factory=list)
-    renamed: int = 0
-    orphans: list = field(default_factory=list)
-    pruned: bool = False
     stopped: str | None = None
-    elapsed: float = 0.0
     startup: float = 0.0
     peak_worker_rss: int = 0
     rendering: float = 0.0
@@ -90,10 +81,6 @@ class BankResult:
     @property
     def estimate(self) -> float | None:
         return None if self.estimated is None else self.estimated.seconds
-
-    @property
-    def rate(self) -> float:
-        return self.done / self.elapsed if self.elapsed > 0 else 0.0
 
     @property
     def render_rate(self) -> float:
@@ -114,22 +101,18 @@ class BankResult:
             )
             if self.planned_rows:
                 text += f" = {self.estimated.describe()}"
-            if self.orphans:
-                text += "\n  " + mf.orphans_note(self.orphans, removed=False)
-            return text
+            return text + self.files_note()
         text = (
             f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
             f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
             f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)"
         )
-        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
+        text += self.files_note()
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
             text += f"\n  ... {len(self.failures) - 5} more failures in the manifest"
-        if self.stopped:
-            text += f"\nstopped: {self.stopped}"
-        return text
+        return text + (f"\nstopped: {self.stopped}" if self.stopped else "")
 
 
 def _lock(out_dir: Path):
@@ -247,53 +230,9 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
 
 
 def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
-    """The complete rows: ``ok``, in the plan, their file in the folder with the recorded
-    SHA-256 (``failed`` and ``planned`` rows are redone)."""
-    return [
-        r
-        for r in rows
-        if r.get("index") in plan and r.get("status") == "ok" and mf.intact(out_dir, r)
-    ]
-
-
-def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> list[dict]:
-    """``rows`` (complete) with their files moved to the plan's names and their labels and
-    tags as the spec gives them now."""
-    moves = {r["index"]: (r["file"], plan[r["index"]].file) for r in rows}
-    moved = move_files(out_dir, spec.format, moves)
-    out = []
-    for row in rows:
-        item = plan[row["index"]]
-        if row["index"] in moved:
-            row = dict(row, file=item.file, **mf.file_hashes(moved[row["index"]]))
-        out.append(described(spec, item, row))
-    return out
-
-
-def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
-    """Move the files ``moves`` (index: (old name, new name) in ``out_dir``) through
-    temporaries (a new name may be another's old one), each as the bytes a render gives
-    under its new name (:func:`synth.store.reproducible.reproducible`); index: bytes."""
-    from synth.store.atomic import temporary_name
-
-    aside = {}
-    for index, (old_name, new_name) in moves.items():
-        if old_name == new_name:
-            continue
-        old = out_dir / old_name
-        aside[index] = out_dir / temporary_name(old.suffix)
-        os.replace(old, aside[index])
-        mf.remove_empty_folders(out_dir, old.parent)
-    moved = {}
-    for index, temporary in aside.items():
-        new_name = moves[index][1]
-        data = reproducible(temporary.read_bytes(), fmt, new_name)
-        target = out_dir / new_name
-        target.parent.mkdir(parents=True, exist_ok=True)
-        mf.write_atomic(target, data)
-        temporary.unlink()
-        moved[index] = data
-    return moved
+    """The complete rows: ``ok``, in the plan, their file with the recorded SHA-256."""
+    ok = [r for r in rows if r.get("index") in plan and r.get("status") == "ok"]
+    return [r for r in ok if mf.intact(out_dir, r)]
 
 
 def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
@@ -425,8 +364,7 @@ def _run_in(
         try:
             result = _run(spec, items, out, n_jobs, connection, force, again)
             recorded = [str(r.get("file")) for r in mf.read_rows(out)]
-            result.orphans = mf.orphans(out, [item.file for item in items] + recorded, prune)
-            result.pruned = prune and bool(result.orphans)
+            result.prune([item.file for item in items] + recorded, prune)
             return result
         finally:
             hold_lock(None)
@@ -449,11 +387,10 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again, t0: float) -
     verified = _verified(out, mf.read_rows(out), plan) if here else []
     kept = [r for r in verified if r["index"] not in again]
     todo = _todo(items, kept)
-    result = BankResult(out, len(items), skipped=len(kept))
+    result = BankResult(out, planned=len(items), skipped=len(kept))
     result.planned_rows = [base_row(spec, item, "planned") for item in todo]
     if here:
-        recorded = [r["file"] for r in verified]
-        result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
+        result.prune([item.file for item in items] + [r["file"] for r in verified], False)
     result.estimated = _estimate(spec, todo, jobs, before=time.perf_counter() - t0)
     result.elapsed = time.perf_counter() - t0
     return result
@@ -472,9 +409,10 @@ def _run(
     plan = {item.index: item for item in items}
     book = mf.Manifest(out, mf.columns(spec.keys))
     verified = _verified(out, mf.read_rows(out), plan)
-    kept = [r for r in _renamed(out, spec, verified, plan) if r["index"] not in again]
-    result = BankResult(out, len(items), skipped=len(kept))
-    result.renamed = sum(1 for r in verified if r["file"] != plan[r["index"]].file)
+    names = {index: item.file for index, item in plan.items()}
+    moved, renamed = mf.renamed(out, spec.format, verified, names)
+    kept = [described(spec, plan[r["index"]], r) for r in moved if r["index"] not in again]
+    result = BankResult(out, planned=len(items), skipped=len(kept), renamed=renamed)
     todo = _todo(items, kept)
     book.rewrite(kept)
     for item in todo:  # a killed run's or a damaged file: published again, once
