@@ -232,11 +232,8 @@ def _damping(damping, where: str):
     ``{alpha, beta}`` a :class:`Rayleigh`, or None."""
     if damping is None or isinstance(damping, LossFactor | Rayleigh):
         return damping
-    law = None
-    if isinstance(damping, dict):
-        law = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}.get(
-            frozenset(damping)
-        )
+    laws = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}
+    law = laws.get(frozenset(damping)) if isinstance(damping, dict) else None
     if law is None:
         raise PresetError(
             f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
