@@ -7,16 +7,9 @@ from synth.lazy import lazy_names
 
 #: Where each public name lives, imported on first use (PEP 562): the command line reads the
 #: options' declaration (:mod:`synth.bank.options`) without loading the banks.
-_LAZY = {
-    "BankResult": "run",
-    "BankRunError": "run",
-    "run": "run",
-    "BankSpec": "spec",
-    "BankSpecError": "spec",
-    "PlanItem": "spec",
-    "load": "spec",
-    "plan": "spec",
-}
+_LAZY = dict.fromkeys(("BankResult", "BankRunError", "run"), "run") | dict.fromkeys(
+    ("BankSpec", "BankSpecError", "PlanItem", "load", "plan"), "spec"
+)
 
 __all__ = list(_LAZY)
 

@@ -58,11 +58,8 @@ MAX_FILE_SAMPLERATE = 768_000
 
 #: Quantisation step of the integer subtypes, in units of full scale.
 PCM_STEP = {
-    "PCM_S8": 2.0**-7,
-    "PCM_U8": 2.0**-7,
-    "PCM_16": 2.0**-15,
-    "PCM_24": 2.0**-23,
-    "PCM_32": 2.0**-31,
+    name: 2.0 ** (1 - bits)
+    for name, bits in (("PCM_S8", 8), ("PCM_U8", 8), ("PCM_16", 16), ("PCM_24", 24), ("PCM_32", 32))
 }
 
 
