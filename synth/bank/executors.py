@@ -88,8 +88,7 @@ class Serial:
         warm(spec)
 
     def results(self, items):
-        for item in items:
-            yield render_item(self.spec, item, self.out_dir)
+        return (render_item(self.spec, item, self.out_dir) for item in items)
 
     def close(self):
         pass

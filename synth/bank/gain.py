@@ -107,11 +107,10 @@ def loudness_gain(bank_dir: Path, rows: list[dict], level: float) -> float:
 def _reached(rows: list[dict], target: str) -> float | None:
     """The loudest true peak (dBTP) or the median loudness (LUFS) of ``rows``; None if none
     has one."""
-    if target == "true_peak":
-        peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
-        return max(peaks) if peaks else None
-    values = [r["loudness_lufs"] for r in rows if r.get("loudness_lufs") is not None]
-    return statistics.median(values) if values else None
+    peak = target == "true_peak"
+    key, pick = ("true_peak_dbtp", max) if peak else ("loudness_lufs", statistics.median)
+    values = [r[key] for r in rows if r.get(key) is not None]
+    return pick(values) if values else None
 
 
 def _check_target(target: str, level) -> float:
