@@ -80,17 +80,11 @@ def write_atomic(target: Path, data: bytes) -> None:
     write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
 
 
-def clean_temporaries(folder: Path) -> int:
-    """Delete the temporaries a killed run left in ``folder`` and below; how many."""
-    n = 0
+def clean_temporaries(folder: Path) -> None:
+    """Delete the temporaries a killed run left in ``folder`` and below."""
     for p in folder.rglob(".*"):
         if TEMPORARY.match(p.name) and p.is_file():
-            try:
-                p.unlink()
-                n += 1
-            except FileNotFoundError:
-                pass
-    return n
+            p.unlink(missing_ok=True)
 
 
 def orphans(folder: Path, kept_names, prune=False) -> list[str]:
