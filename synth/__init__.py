@@ -13,41 +13,22 @@ from synth.errors import ParameterError, SynthError  # noqa: F401  (in __all__)
 
 #: Where each public name lives: imported from there on first use.
 _LAZY = {
-    "Analysis": "synth.analysis",
-    "AnalysisOptions": "synth.analysis",
-    "Tick": "synth.analysis",
-    "analyze": "synth.analysis",
-    "analyze_file": "synth.analysis",
-    "read_audio": "synth.store.audio",
-    "write_audio": "synth.store.audio",
-    "play": "synth.io.playback",
-    "load_preset": "synth.io.presets",
-    "render_preset": "synth.io.presets",
-    "Body": "synth.live",
-    "Engine": "synth.live",
-    "EngineStats": "synth.live",
-    "Voice": "synth.live",
-    "BounceSequence": "synth.physics.bounces",
-    "Impact": "synth.physics.bounces",
-    "simulate_bounces": "synth.physics.bounces",
-    "simulate_scene": "synth.physics.bounces",
-    "ImpactResult": "synth.physics.contact",
-    "solve_contact": "synth.physics.contact",
-    "solve_impact": "synth.physics.contact",
-    "LossFactor": "synth.physics.materials",
-    "Material": "synth.physics.materials",
-    "Rayleigh": "synth.physics.materials",
-    "Accelerometer": "synth.physics.scene",
-    "Ball": "synth.physics.scene",
-    "Contact": "synth.physics.scene",
-    "HollowBall": "synth.physics.scene",
-    "Microphone": "synth.physics.scene",
-    "Plate": "synth.physics.scene",
-    "Scene": "synth.physics.scene",
-    "Render": "synth.sound.render",
-    "RenderInfo": "synth.sound.result",
-    "RenderOptions": "synth.sound.options",
-    "render": "synth.sound.render",
+    name: module
+    for module, names in {
+        "synth.analysis": "Analysis AnalysisOptions Tick analyze analyze_file",
+        "synth.store.audio": "read_audio write_audio",
+        "synth.io.playback": "play",
+        "synth.io.presets": "load_preset render_preset",
+        "synth.live": "Body Engine EngineStats Voice",
+        "synth.physics.bounces": "BounceSequence Impact simulate_bounces simulate_scene",
+        "synth.physics.contact": "ImpactResult solve_contact solve_impact",
+        "synth.physics.materials": "LossFactor Material Rayleigh",
+        "synth.physics.scene": "Accelerometer Ball Contact HollowBall Microphone Plate Scene",
+        "synth.sound.render": "Render render",
+        "synth.sound.result": "RenderInfo",
+        "synth.sound.options": "RenderOptions",
+    }.items()
+    for name in names.split()
 }
 #: Public submodules, imported on first use; ``plate`` is the plate's modes under its
 #: public name.

@@ -15,9 +15,11 @@ import difflib
 import inspect
 import math
 import numbers
+import os
 import textwrap
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -74,24 +76,11 @@ def nonnegative(name: str, value: object, unit: str = "") -> float:
     return x
 
 
-def in_range(
-    name: str,
-    value: object,
-    lo: float,
-    hi: float,
-    unit: str = "",
-    *,
-    lo_open: bool = True,
-    hi_open: bool = True,
-) -> float:
+def in_range(name, value, lo: float, hi: float, unit="", *, lo_open=True, hi_open=True) -> float:
     """A finite float inside an interval; open or closed at either end."""
-    left = "(" if lo_open else "["
-    right = ")" if hi_open else "]"
-    interval = f"in {left}{lo:g}, {hi:g}{right}"
+    interval = f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
     x = real(name, value, unit, interval)
-    ok_lo = x > lo if lo_open else x >= lo
-    ok_hi = x < hi if hi_open else x <= hi
-    if not (ok_lo and ok_hi):
+    if not ((x > lo if lo_open else x >= lo) and (x < hi if hi_open else x <= hi)):
         raise ParameterError(f"{name}={value!r} must be {interval}{_unit(unit)}")
     return x
 
@@ -151,8 +140,8 @@ def audio_array(name: str, audio: object) -> np.ndarray:
         )
     if a.size == 0:
         raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
-    if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
+    bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
+    if bad.size:
         raise ParameterError(
             f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
             f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite"
@@ -170,8 +159,6 @@ def samplerate(value: object, name: str = "samplerate") -> int:
 def environment_integer(name: str, default: int, least: int = 0, unit: str = "") -> int:
     """The integer environment variable ``name`` (``>= least``), or ``default`` when unset
     or empty; else ``ParameterError`` naming the variable and its text."""
-    import os
-
     text = os.environ.get(name)
     if text is None or not text.strip():
         return default
@@ -188,9 +175,6 @@ def environment_directory(name: str):
     """The folder (``~`` expanded, perhaps not made yet) named by the environment variable
     ``name``, or None when unset or empty; ``ParameterError`` when it is a file (which
     would otherwise turn the folder's use off without a word)."""
-    import os
-    from pathlib import Path
-
     text = os.environ.get(name)
     if text is None or not text.strip():
         return None
@@ -242,10 +226,9 @@ def names(cls) -> tuple[str, ...]:
 def check_names(cls, given, what: str) -> None:
     """``TypeError`` naming the nearest option for a name of ``given`` not an option of ``cls``."""
     known = names(cls)
-    for name in given:
-        if name not in known:
-            hint = did_you_mean(name, known)
-            raise TypeError(f"{name!r} is not {what}{hint}; options: {', '.join(known)}")
+    for name in (n for n in given if n not in known):
+        hint = did_you_mean(name, known)
+        raise TypeError(f"{name!r} is not {what}{hint}; options: {', '.join(known)}")
 
 
 def declaration(cls, name: str) -> Option:

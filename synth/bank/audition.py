@@ -67,12 +67,7 @@ def preview(bank_dir, path, *, gap: float = PREVIEW_GAP) -> Path:
         )
     fs, ch = rates.pop(), channels.pop()
     silence = np.zeros((round(gap * fs), ch))
-    parts = []
-    for i, s in enumerate(items):
-        if i:
-            parts.append(silence)
-        parts.append(s.audio)
-    joined = np.concatenate(parts)
+    joined = np.concatenate([part for s in items for part in (silence, s.audio)][1:])
     subtype = "FLOAT" if Path(path).suffix.lower() == ".wav" else "PCM_24"
     return write_audio(path, joined[:, 0] if ch == 1 else joined, fs, subtype=subtype)
 
@@ -115,10 +110,4 @@ def sheet(bank_dir, path, *, columns: int = SHEET_COLUMNS) -> Path:
         nfft = 512 if mono.size >= 512 else max(16, mono.size)
         spec.specgram(mono, NFFT=nfft, Fs=s.samplerate, noverlap=nfft // 2, cmap="magma")
         spec.tick_params(labelsize=5)
-    target = Path(path)
-
-    def write(tmp):
-        fig.savefig(tmp, format="png", dpi=80)
-
-    write_atomically(target, write)
-    return target
+    return write_atomically(Path(path), lambda tmp: fig.savefig(tmp, format="png", dpi=80))

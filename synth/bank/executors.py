@@ -3,6 +3,7 @@ with their parent, or on a Dask cluster; the parent alone writes the manifest.""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -18,12 +19,9 @@ class BankRunError(SynthError):
 
 
 #: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
-_WORKER_THREADS = {
-    "OMP_NUM_THREADS": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "NUMBA_NUM_THREADS": "1",
-}
+_WORKER_THREADS = dict.fromkeys(
+    ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"), "1"
+)
 
 _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
@@ -39,6 +37,8 @@ def hold_lock(lock) -> None:
 
 #: Period of a worker's watch on its parent, s (the fallback of PR_SET_PDEATHSIG).
 PARENT_WATCH_PERIOD = 0.5
+#: prctl(2)'s option: the signal this process gets when its parent dies (linux/prctl.h).
+PR_SET_PDEATHSIG = 1
 
 
 def _die_with_parent(parent: int) -> None:
@@ -48,14 +48,10 @@ def _die_with_parent(parent: int) -> None:
     import threading
 
     if sys.platform.startswith("linux"):
-        try:
-            import ctypes
+        import ctypes
 
-            libc = ctypes.CDLL(None, use_errno=True)
-            pr_set_pdeathsig = 1
-            libc.prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):  # no prctl: the watch below does it
-            pass
+        with contextlib.suppress(OSError, AttributeError):  # no prctl: the watch below does it
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
     if os.getppid() != parent:  # the parent died before the signal was armed
         os._exit(1)
 
@@ -82,11 +78,6 @@ def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
     warm(spec)
 
 
-def _pool_ready() -> int:
-    """A no-op task: its result tells that a worker is warm."""
-    return os.getpid()
-
-
 def _pool_task(item: PlanItem) -> RowResult:
     return render_item(_WORKER_SPEC, item, _WORKER_DIR)
 
@@ -97,8 +88,7 @@ class Serial:
         warm(spec)
 
     def results(self, items):
-        for item in items:
-            yield render_item(self.spec, item, self.out_dir)
+        return (render_item(self.spec, item, self.out_dir) for item in items)
 
     def close(self):
         pass
@@ -135,7 +125,7 @@ class Pool:
                 initializer=_pool_init,
                 initargs=(spec, out_dir, os.getpid()),
             )
-            for ready in [self.executor.submit(_pool_ready) for _ in range(jobs)]:
+            for ready in [self.executor.submit(os.getpid) for _ in range(jobs)]:  # all warm
                 self._result(ready)
         finally:
             for k, v in saved.items():
@@ -215,18 +205,13 @@ class Dask:
         from dask.distributed import as_completed
 
         spec = self.client.scatter(self.spec, broadcast=True)
-        futures = [
-            self.client.submit(render_item, spec, item, self.out_dir, pure=False) for item in items
-        ]
-        self._futures = futures
-        for fut in as_completed(futures):
+        submit = self.client.submit
+        self._futures = [submit(render_item, spec, i, self.out_dir, pure=False) for i in items]
+        for fut in as_completed(self._futures):
             try:
                 res = fut.result()
             except Exception as exc:  # noqa: BLE001 - a task the cluster lost (KilledWorker ...)
-                res = RowResult(
-                    None,
-                    fatal=f"the Dask cluster lost a row ({type(exc).__name__}: {exc})",
-                )
+                res = RowResult(None, f"the Dask cluster lost a row ({type(exc).__name__}: {exc})")
             fut.release()
             yield res
 

@@ -14,7 +14,7 @@ import json
 import math
 import statistics
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import synth
@@ -22,7 +22,7 @@ from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.executors import BankRunError
 from synth.bank.row import encode, integrated_loudness
-from synth.bank.run import engine_problem, move_files
+from synth.bank.run import engine_problem
 from synth.bank.spec import BankSpecError
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
@@ -37,36 +37,23 @@ LOUDNESS_TRIALS = 8
 LOUDNESS_TOLERANCE = 1e-3
 
 
-@dataclass
-class GainResult:
-    """The outcome of :func:`apply_gain`: the gain (dB), files ``done`` now, ``skipped``
-    (complete; ``renamed`` of them), ``orphans`` (deleted if ``pruned``), ``elapsed`` (s),
-    and the level ``reached`` (dBTP or LUFS, :func:`_reached`)."""
+@dataclass(kw_only=True)
+class GainResult(mf.Outcome):
+    """The outcome of :func:`apply_gain` (:class:`~synth.bank.manifest.Outcome`): the gain
+    (dB), its target and level, and the level ``reached`` (dBTP or LUFS, :func:`_reached`)."""
 
-    out_dir: Path
     gain_db: float
     target: str
     level: float
-    done: int = 0
-    skipped: int = 0
-    renamed: int = 0
-    orphans: list = field(default_factory=list)
-    pruned: bool = False
-    elapsed: float = 0.0
     reached: float | None = None
 
-    @property
-    def rate(self) -> float:
-        return self.done / self.elapsed if self.elapsed > 0 else 0.0
-
     def summary(self) -> str:
-        text = (
+        reached = "" if self.reached is None else f", reached {self.reached:.3f}"
+        return (
             f"{self.out_dir}: gain {self.gain_db:+.3f} dB ({self.target} to {self.level:g}"
-            f"{'' if self.reached is None else f', reached {self.reached:.3f}'}); "
-            f"{self.done} files scaled, {self.skipped} already done, in {self.elapsed:.1f} s"
+            f"{reached}); {self.done} files scaled, {self.skipped} already done, in "
+            f"{self.elapsed:.1f} s{self.files_note()}"
         )
-        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
-        return text
 
 
 def bank_gain(rows: list[dict], target: str, level: float) -> float:
@@ -120,11 +107,10 @@ def loudness_gain(bank_dir: Path, rows: list[dict], level: float) -> float:
 def _reached(rows: list[dict], target: str) -> float | None:
     """The loudest true peak (dBTP) or the median loudness (LUFS) of ``rows``; None if none
     has one."""
-    if target == "true_peak":
-        peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
-        return max(peaks) if peaks else None
-    values = [r["loudness_lufs"] for r in rows if r.get("loudness_lufs") is not None]
-    return statistics.median(values) if values else None
+    peak = target == "true_peak"
+    key, pick = ("true_peak_dbtp", max) if peak else ("loudness_lufs", statistics.median)
+    values = [r[key] for r in rows if r.get(key) is not None]
+    return pick(values) if values else None
 
 
 def _check_target(target: str, level) -> float:
@@ -155,37 +141,16 @@ def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
     return spec, rows
 
 
-def _scaled_row(row: dict, scaled: Scaled, gain_db: float) -> dict:
-    """The manifest row of a scaled file: peaks moved by the gain (they scale exactly),
-    loudness measured (it does not)."""
-    new = dict(row)
-    new["gain_db"] = gain_db
-    for key in ("peak_dbfs", "true_peak_dbtp"):
-        if new.get(key) is not None:
-            new[key] = round(new[key] + gain_db, 6)
-    new["loudness_lufs"] = scaled.loudness_lufs
-    new.update(mf.file_hashes(scaled.data))
-    return new
-
-
-@dataclass
-class Scaled:
-    """A scaled file's bytes and its samples' loudness (LUFS), measured before quantization
-    as a render's manifest measures it."""
-
-    data: bytes
-    loudness_lufs: float | None
-
-
-def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> Scaled:
-    """``source`` scaled by ``gain_db`` and encoded again (:func:`synth.bank.row.encode`)."""
+def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> tuple[bytes, dict]:
+    """``source`` scaled by ``gain_db`` and encoded again (:func:`synth.bank.row.encode`), and
+    its samples' loudness, measured before quantization as a render's manifest measures it."""
     import soundfile
 
     audio, samplerate = soundfile.read(source, dtype="float64")
     audio = audio * 10.0 ** (gain_db / 20.0)
     advice = f"the gain of {gain_db:+.2f} dB is too high: choose a lower level"
     data = encode(audio, samplerate, spec["format"], spec["subtype"], name, advice)
-    return Scaled(data, integrated_loudness(audio, samplerate))
+    return data, {"loudness_lufs": integrated_loudness(audio, samplerate)}
 
 
 def _compared(record: dict) -> dict:
@@ -201,30 +166,15 @@ def _compared(record: dict) -> dict:
 
 
 def _done_rows(out: Path, rows: list[dict], fmt: str) -> tuple[list[dict], int]:
-    """The rows of ``out``'s manifest whose scaled file is complete, moved to the source's
-    names (a renamed source row keeps its scaled file), and how many were moved."""
+    """The source's ``rows`` whose scaled file in ``out`` is complete, with its levels, gain
+    and hashes, moved to the source's names (:func:`~synth.bank.manifest.renamed`); and how
+    many were moved."""
     source = {r["index"]: r for r in rows}
-    rows_there = mf.read_rows(out)
-    complete = {r["index"]: r for r in rows_there if r["index"] in source and mf.intact(out, r)}
-    moves = {i: (r["file"], source[i]["file"]) for i, r in complete.items()}
-    moved = move_files(out, fmt, moves)
-    kept = []
-    for index, row in complete.items():
-        data = moved.get(index)
-        hashes = mf.file_hashes(data) if data is not None else {
-            k: row.get(k) for k in ("sha256", "audio_sha256")
-        }  # fmt: skip
-        kept.append(_described(source[index], row, hashes))
-    return kept, len(moved)
-
-
-def _described(source_row: dict, row: dict, hashes: dict) -> dict:
-    """The source's row as it is now, with the scaled file's levels, gain and ``hashes``."""
-    new = dict(source_row)
-    for key in ("gain_db", "peak_dbfs", "true_peak_dbtp", "loudness_lufs"):
-        new[key] = row.get(key)
-    new.update(hashes)
-    return new
+    complete = [r for r in mf.read_rows(out) if r["index"] in source and mf.intact(out, r)]
+    names = {i: r["file"] for i, r in source.items()}
+    moved, renamed = mf.renamed(out, fmt, complete, names)
+    scaled = ("gain_db", "peak_dbfs", "true_peak_dbtp", "loudness_lufs", "sha256", "audio_sha256")
+    return [dict(source[r["index"]], **{k: r.get(k) for k in scaled}) for r in moved], renamed
 
 
 def _check_scaled_before(out: Path, record: dict) -> None:
@@ -246,14 +196,20 @@ def _check_scaled_before(out: Path, record: dict) -> None:
 
 
 def _scale_row(src: Path, out: Path, row: dict, spec: dict, gain_db: float) -> dict:
-    """Scale ``row``'s file into ``out`` by ``gain_db`` (dB), written once; its new row."""
-    target_file = out / row["file"]
-    target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
-    target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
-    scaled = _scale_file(src / row["file"], spec, gain_db, row["file"])
-    if not mf.write_once(target_file, scaled.data):
-        scaled.data = target_file.read_bytes()
-    return _scaled_row(row, scaled, gain_db)
+    """Scale ``row``'s file into ``out`` by ``gain_db`` (dB), written once; its new row: peaks
+    moved by the gain (they scale exactly), loudness measured (it does not)."""
+    target = out / row["file"]
+    target.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
+    target.unlink(missing_ok=True)  # stale: not recorded with its hash
+    data, loudness = _scale_file(src / row["file"], spec, gain_db, row["file"])
+    if not mf.write_once(target, data):
+        data = target.read_bytes()
+    peaks = {
+        k: round(row[k] + gain_db, 6)
+        for k in ("peak_dbfs", "true_peak_dbtp")
+        if row.get(k) is not None
+    }
+    return dict(row, gain_db=gain_db, **peaks, **loudness, **mf.file_hashes(data))
 
 
 def apply_gain(
@@ -277,14 +233,15 @@ def apply_gain(
     t0 = time.perf_counter()
     _check_scaled_before(out, record)
     out.mkdir(parents=True, exist_ok=True)
-    record_bytes = (json.dumps(record, indent=1, sort_keys=True) + "\n").encode()
-    mf.write_atomic(out / GAIN_FILE, record_bytes)
+    mf.write_json(out / GAIN_FILE, record)
     mf.clean_temporaries(out)
     cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]
     book = mf.Manifest(out, cols)
     kept, renamed = _done_rows(out, rows, spec["format"])
     done_rows = {r["index"] for r in kept}
-    result = GainResult(out, gain_db, target, level, skipped=len(kept), renamed=renamed)
+    result = GainResult(
+        out, gain_db=gain_db, target=target, level=level, skipped=len(kept), renamed=renamed
+    )
     book.rewrite(kept)
     try:
         for row in rows:
@@ -295,10 +252,8 @@ def apply_gain(
             kept.append(new)
             result.done += 1
     finally:
-        book.close()
-        book.rewrite(sorted(kept, key=lambda r: r["index"]))
+        book.rewrite(kept)
     result.reached = _reached(kept, target)
-    result.orphans = mf.orphans(out, [r["file"] for r in kept], prune)
-    result.pruned = prune and bool(result.orphans)
+    result.prune([r["file"] for r in kept], prune)
     result.elapsed = time.perf_counter() - t0
     return result

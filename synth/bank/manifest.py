@@ -1,5 +1,6 @@
-"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv``, one row per sound
-(docs/banks.md, "Manifest"), and the stored spec (``bank.json``).
+"""The files of a bank's folder: ``manifest.jsonl`` and ``manifest.csv``, one row per sound
+(docs/banks.md, "Manifest"), the stored spec (``bank.json``), and what a run and a gain pass
+share: the outcome's counts, complete rows moved to new names, orphans.
 
 The parent alone appends rows, each line whole and fsynced after its file is in place, so
 a ``kill -9`` leaves every finished row with its file; at a run's start and end both files
@@ -14,10 +15,12 @@ import io
 import json
 import os
 import re
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from synth.store.atomic import write_atomically
+from synth.store.atomic import temporary_name, write_atomically
 from synth.store.atomic import write_once as write_once
+from synth.store.reproducible import decoded_sha256, reproducible
 
 JSONL = "manifest.jsonl"
 CSV = "manifest.csv"
@@ -35,6 +38,38 @@ RESULT_COLUMNS = tuple(
 #: then ``.part[.ext]`` (``.{name}.{hex}.part.wav``, ``.synth-{pid}-{hex}.part.wav``).
 TEMPORARY = re.compile(r"^\..+[.-][0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
 
+#: Suffixes of the audio files a bank writes: the files :func:`orphans` looks for.
+AUDIO_SUFFIXES = (".wav", ".flac", ".ogg")
+
+
+@dataclass
+class Outcome:
+    """What a pass over a bank's folder did: files ``done`` now, ``skipped`` (complete;
+    ``renamed`` of them), ``orphans`` (audio files in neither the manifest nor the plan,
+    deleted if ``pruned``), ``elapsed`` s."""
+
+    out_dir: Path
+    done: int = 0
+    skipped: int = 0
+    renamed: int = 0
+    orphans: list = field(default_factory=list)
+    pruned: bool = False
+    elapsed: float = 0.0
+
+    @property
+    def rate(self) -> float:
+        return self.done / self.elapsed if self.elapsed > 0 else 0.0
+
+    def files_note(self) -> str:
+        """The summary's lines on files renamed and orphans, each after a newline."""
+        text = f"\n  {self.renamed} files renamed (same sounds, new names)" if self.renamed else ""
+        return text + (f"\n  {orphans_note(self.orphans, self.pruned)}" if self.orphans else "")
+
+    def prune(self, names, prune: bool) -> None:
+        """Find the :func:`orphans` of the folder beside ``names``, deleted if ``prune``."""
+        self.orphans = orphans(self.out_dir, names, prune)
+        self.pruned = prune and bool(self.orphans)
+
 
 def columns(keys) -> list[str]:
     return ["index", "file", *keys, *RESULT_COLUMNS]
@@ -45,28 +80,17 @@ def write_atomic(target: Path, data: bytes) -> None:
     write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
 
 
-def clean_temporaries(folder: Path) -> int:
-    """Delete the temporaries a killed run left in ``folder`` and below; how many."""
-    n = 0
+def clean_temporaries(folder: Path) -> None:
+    """Delete the temporaries a killed run left in ``folder`` and below."""
     for p in folder.rglob(".*"):
         if TEMPORARY.match(p.name) and p.is_file():
-            try:
-                p.unlink()
-                n += 1
-            except FileNotFoundError:
-                pass
-    return n
-
-
-#: Suffixes of the audio files a bank writes: the files :func:`orphans` looks for.
-AUDIO_SUFFIXES = (".wav", ".flac", ".ogg")
+            p.unlink(missing_ok=True)
 
 
 def orphans(folder: Path, kept_names, prune=False) -> list[str]:
     """The audio files below ``folder`` (relative names, sorted) not in ``kept_names`` (the
-    manifest's and the plan's): an earlier name template's, a stopped run's, or put there
-    by hand; temporaries not counted. With ``prune`` they are deleted, and the subfolders
-    they leave empty."""
+    manifest's and the plan's), temporaries not counted; with ``prune`` they are deleted,
+    and the subfolders they leave empty."""
     kept = set(kept_names)
     out = []
     for p in folder.rglob("*"):
@@ -121,12 +145,39 @@ def orphans_note(names: list[str], removed: bool) -> str:
     )
 
 
-def files_note(renamed: int, orphans: list[str], removed: bool) -> str:
-    """The summary's lines on files renamed and :func:`orphans_note`, each after a newline."""
-    text = f"\n  {renamed} files renamed (same sounds, new names)" if renamed else ""
-    if orphans:
-        text += "\n  " + orphans_note(orphans, removed=removed)
-    return text
+def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
+    """Move the files ``moves`` (index: (old name, new name) in ``out_dir``) through
+    temporaries (a new name may be another's old one), each as the bytes a render gives
+    under its new name (:func:`synth.store.reproducible.reproducible`); index: bytes."""
+    aside = {}
+    for index, (old_name, new_name) in moves.items():
+        if old_name != new_name:
+            old = out_dir / old_name
+            aside[index] = out_dir / temporary_name(old.suffix)
+            os.replace(old, aside[index])
+            remove_empty_folders(out_dir, old.parent)
+    moved = {}
+    for index, temporary in aside.items():
+        new_name = moves[index][1]
+        moved[index] = reproducible(temporary.read_bytes(), fmt, new_name)
+        target = out_dir / new_name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(target, moved[index])
+        temporary.unlink()
+    return moved
+
+
+def renamed(out_dir: Path, fmt: str, rows: list[dict], names: dict) -> tuple[list[dict], int]:
+    """The complete ``rows`` with their files moved to ``names`` (index: new name,
+    :func:`move_files`) and their hashes recomputed where moved; and how many moved."""
+    moved = move_files(out_dir, fmt, {r["index"]: (r["file"], names[r["index"]]) for r in rows})
+    out = [
+        dict(r, file=names[r["index"]], **file_hashes(moved[r["index"]]))
+        if r["index"] in moved
+        else r
+        for r in rows
+    ]
+    return out, len(moved)
 
 
 def sha256_file(path: Path) -> str:
@@ -139,23 +190,18 @@ def sha256_file(path: Path) -> str:
 
 def file_hashes(data: bytes) -> dict:
     """``sha256`` of ``data`` and ``audio_sha256`` of its decoded samples."""
-    from synth.store.reproducible import decoded_sha256
-
     return {"sha256": hashlib.sha256(data).hexdigest(), "audio_sha256": decoded_sha256(data)}
 
 
-def _csv_value(v):
-    """A CSV cell: lists and tables as JSON text."""
-    if v is None:
-        return ""
-    if isinstance(v, (list, tuple, dict)):
-        return json.dumps(v)
-    return v
-
-
 def _csv_line(row: dict, cols) -> str:
+    """A CSV line; None empty, lists and tables as JSON text."""
     buf = io.StringIO()
-    csv.writer(buf, lineterminator="\n").writerow([_csv_value(row.get(c)) for c in cols])
+    cells = [row.get(c) for c in cols]
+    cells = [
+        "" if v is None else json.dumps(v) if isinstance(v, list | tuple | dict) else v
+        for v in cells
+    ]
+    csv.writer(buf, lineterminator="\n").writerow(cells)
     return buf.getvalue()
 
 
@@ -194,9 +240,8 @@ class Manifest:
         self.close()
         rows = sorted(rows, key=lambda r: r["index"])
         header = _csv_line({c: c for c in self.cols}, self.cols)
-        write_atomic(
-            self.folder / CSV, (header + "".join(_csv_line(r, self.cols) for r in rows)).encode()
-        )
+        csv_text = header + "".join(_csv_line(r, self.cols) for r in rows)
+        write_atomic(self.folder / CSV, csv_text.encode())
         write_atomic(self.folder / JSONL, "".join(_json_line(r, self.cols) for r in rows).encode())
 
     def append(self, row: dict) -> None:
@@ -204,30 +249,31 @@ class Manifest:
         if self._files is None:  # held open for the run
             self._files = [
                 open(self.folder / JSONL, "a", encoding="utf-8"),  # noqa: SIM115
-                open(self.folder / CSV, "a", encoding="utf-8", newline=""),
-            ]  # noqa: SIM115
+                open(self.folder / CSV, "a", encoding="utf-8", newline=""),  # noqa: SIM115
+            ]
         for fh, line in zip(self._files, (_json_line(row, self.cols), _csv_line(row, self.cols))):
             fh.write(line)
             fh.flush()
             os.fsync(fh.fileno())
 
     def close(self) -> None:
-        if self._files is not None:
-            for fh in self._files:
-                try:
-                    fh.close()
-                except OSError:
-                    pass
-            self._files = None
+        for fh in self._files or ():
+            try:
+                fh.close()
+            except OSError:
+                pass
+        self._files = None
 
 
 def read_spec(folder: Path) -> dict | None:
     path = folder / SPEC
-    if not path.is_file():
-        return None
-    with open(path, encoding="utf-8") as fh:
-        return json.load(fh)
+    return json.loads(path.read_text(encoding="utf-8")) if path.is_file() else None
 
 
 def write_spec(folder: Path, spec: dict) -> None:
-    write_atomic(folder / SPEC, (json.dumps(spec, indent=1, sort_keys=True) + "\n").encode())
+    write_json(folder / SPEC, spec)
+
+
+def write_json(path: Path, obj: dict) -> None:
+    """``obj`` as indented JSON with sorted keys, written atomically."""
+    write_atomic(path, (json.dumps(obj, indent=1, sort_keys=True) + "\n").encode())

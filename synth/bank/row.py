@@ -3,6 +3,7 @@ and its manifest row measured (level, loudness, centroid, duration, hash)."""
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import resource
@@ -90,16 +91,17 @@ def render_scene(spec: BankSpec, item: PlanItem):
     data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     first = rendered.impacts[0] if len(rendered.impacts) else None
+    contact = None if first is None else first.result
     figures = {
         "duration": audio.shape[0] / rendered.samplerate,
         "stop_reason": rendered.impacts.stop_reason,
         "length_reason": length_reason,
         "audible_duration": _last_above(audio, AUDIBLE_BELOW_DB) / rendered.samplerate,
         "ticks": len(rendered.impacts),
-        "first_restitution": first.restitution if first is not None else None,
-        "first_speed": first.speed if first is not None else None,
-        "first_contact_time": first.result.contact_time if first is not None else None,
-        "first_peak_force": first.result.peak_force if first is not None else None,
+        "first_restitution": getattr(first, "restitution", None),
+        "first_speed": getattr(first, "speed", None),
+        "first_contact_time": getattr(contact, "contact_time", None),
+        "first_peak_force": getattr(contact, "peak_force", None),
         "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
         "true_peak_dbtp": _true_peak_db(audio),
         "loudness_lufs": integrated_loudness(audio, rendered.samplerate),
@@ -179,8 +181,7 @@ def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
 
 def base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
     row = {"index": item.index, "file": item.file, "seed": spec.seed, "status": status}
-    for k, v in item.values.items():
-        row[k] = list(v) if isinstance(v, tuple) else v
+    row.update((k, list(v) if isinstance(v, tuple) else v) for k, v in item.values.items())
     return described(spec, item, row)
 
 
@@ -214,7 +215,5 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
 def warm(spec: BankSpec) -> None:
     """Render the base scene once (kernels, modes and gains into the caches); errors are
     left to the rows."""
-    try:
+    with contextlib.suppress(Exception):  # a base scene that fails is reported by its rows
         render_scene(spec, PlanItem(-1, "warm", {}))
-    except Exception:  # noqa: BLE001, S110 - a base scene that fails is reported by its rows
-        pass

@@ -6,10 +6,13 @@ the others go on; a file that cannot be written stops the bank cleanly.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import math
 import os
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +25,6 @@ from synth.bank.options import OPTIONS
 from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
 from synth.bank.spec.model import spec_integer
-from synth.store.reproducible import reproducible
 
 #: Rows a dry run times (spread over the plan): at least this many and the square root of
 #: the rows (rows differ in cost tenfold: the sampled mean's relative error falls as one
@@ -62,24 +64,16 @@ class Estimate:
         )
 
 
-@dataclass
-class BankResult:
-    """The outcome of :func:`run`: rows ``done`` now, ``skipped`` (complete), ``failed``
-    (``failures``), ``renamed``; ``orphans`` (audio files in neither the manifest nor the
-    plan, removed if ``pruned``); ``stopped`` why it stopped early; times in s, memory in
+@dataclass(kw_only=True)
+class BankResult(mf.Outcome):
+    """The outcome of :func:`run` (:class:`~synth.bank.manifest.Outcome`): of ``planned``
+    rows, ``failed`` (``failures``); ``stopped`` why it stopped early; times in s, memory in
     bytes; for a dry run ``estimated`` and ``planned_rows``."""
 
-    out_dir: Path
     planned: int
-    done: int = 0
-    skipped: int = 0
     failed: int = 0
     failures: list = field(default_factory=list)
-    renamed: int = 0
-    orphans: list = field(default_factory=list)
-    pruned: bool = False
     stopped: str | None = None
-    elapsed: float = 0.0
     startup: float = 0.0
     peak_worker_rss: int = 0
     rendering: float = 0.0
@@ -90,10 +84,6 @@ class BankResult:
     @property
     def estimate(self) -> float | None:
         return None if self.estimated is None else self.estimated.seconds
-
-    @property
-    def rate(self) -> float:
-        return self.done / self.elapsed if self.elapsed > 0 else 0.0
 
     @property
     def render_rate(self) -> float:
@@ -114,34 +104,32 @@ class BankResult:
             )
             if self.planned_rows:
                 text += f" = {self.estimated.describe()}"
-            if self.orphans:
-                text += "\n  " + mf.orphans_note(self.orphans, removed=False)
-            return text
+            return text + self.files_note()
         text = (
             f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
             f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
             f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)"
         )
-        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
+        text += self.files_note()
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
             text += f"\n  ... {len(self.failures) - 5} more failures in the manifest"
-        if self.stopped:
-            text += f"\nstopped: {self.stopped}"
-        return text
+        return text + (f"\nstopped: {self.stopped}" if self.stopped else "")
 
 
-def _lock(out_dir: Path):
-    """Hold the folder's lock file (``flock``: a killed run holds nothing) for the run; a
-    lock taken on a file removed meanwhile by the run that held it is taken again."""
+@contextmanager
+def _locked(out_dir: Path):
+    """Hold the folder's lock file (``flock``: a killed run holds nothing) for the run, taken
+    again if the run that held it removed it meanwhile; removed while held at the end."""
     try:
         import fcntl
     except ImportError:  # no advisory locks on this platform
-        return None
+        yield
+        return
     path = out_dir / mf.LOCK
     for _ in range(100):
-        fh = open(path, "a")  # noqa: SIM115 - held for the run, closed by _unlock()
+        fh = open(path, "a")  # noqa: SIM115 - held for the run
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -149,24 +137,20 @@ def _lock(out_dir: Path):
             raise BankRunError(
                 f"out_dir={str(out_dir)!r} is in use by another synth bank"
             ) from None
-        try:
+        with contextlib.suppress(FileNotFoundError):
             if os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino:
-                return fh
-        except FileNotFoundError:
-            pass
+                break
         fh.close()
-    raise BankRunError(f"out_dir={str(out_dir)!r}: its lock file {mf.LOCK} keeps changing")
-
-
-def _unlock(out_dir: Path, fh) -> None:
-    """Remove the lock file while holding its lock, then release it."""
-    if fh is None:
-        return
+    else:
+        raise BankRunError(f"out_dir={str(out_dir)!r}: its lock file {mf.LOCK} keeps changing")
+    hold_lock(fh)
     try:
-        (out_dir / mf.LOCK).unlink(missing_ok=True)
-    except OSError:
-        pass
-    fh.close()
+        yield
+    finally:
+        hold_lock(None)
+        with contextlib.suppress(OSError):
+            path.unlink(missing_ok=True)
+        fh.close()
 
 
 def _as_spec(spec) -> BankSpec:
@@ -246,54 +230,10 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
     mf.write_spec(out_dir, spec.stored_form())
 
 
-def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
-    """The complete rows: ``ok``, in the plan, their file in the folder with the recorded
-    SHA-256 (``failed`` and ``planned`` rows are redone)."""
-    return [
-        r
-        for r in rows
-        if r.get("index") in plan and r.get("status") == "ok" and mf.intact(out_dir, r)
-    ]
-
-
-def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> list[dict]:
-    """``rows`` (complete) with their files moved to the plan's names and their labels and
-    tags as the spec gives them now."""
-    moves = {r["index"]: (r["file"], plan[r["index"]].file) for r in rows}
-    moved = move_files(out_dir, spec.format, moves)
-    out = []
-    for row in rows:
-        item = plan[row["index"]]
-        if row["index"] in moved:
-            row = dict(row, file=item.file, **mf.file_hashes(moved[row["index"]]))
-        out.append(described(spec, item, row))
-    return out
-
-
-def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
-    """Move the files ``moves`` (index: (old name, new name) in ``out_dir``) through
-    temporaries (a new name may be another's old one), each as the bytes a render gives
-    under its new name (:func:`synth.store.reproducible.reproducible`); index: bytes."""
-    from synth.store.atomic import temporary_name
-
-    aside = {}
-    for index, (old_name, new_name) in moves.items():
-        if old_name == new_name:
-            continue
-        old = out_dir / old_name
-        aside[index] = out_dir / temporary_name(old.suffix)
-        os.replace(old, aside[index])
-        mf.remove_empty_folders(out_dir, old.parent)
-    moved = {}
-    for index, temporary in aside.items():
-        new_name = moves[index][1]
-        data = reproducible(temporary.read_bytes(), fmt, new_name)
-        target = out_dir / new_name
-        target.parent.mkdir(parents=True, exist_ok=True)
-        mf.write_atomic(target, data)
-        temporary.unlink()
-        moved[index] = data
-    return moved
+def _verified(out_dir: Path, rows: list[dict], plan) -> list[dict]:
+    """The complete rows: ``ok``, in the plan, their file with the recorded SHA-256."""
+    ok = [r for r in rows if r.get("index") in plan and r.get("status") == "ok"]
+    return [r for r in ok if mf.intact(out_dir, r)]
 
 
 def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
@@ -327,27 +267,22 @@ def _estimate_sample(items, jobs: int) -> list:
     return [items[int(i)] for i in picks]
 
 
-def _estimate(spec: BankSpec, items, jobs: int, before: float) -> Estimate:
-    """The :class:`Estimate` of a run of ``items``: a sample of rows run as the run runs them,
-    in a scratch folder; the bank's folder is not touched."""
+def _estimate(job: _Job, before: float) -> Estimate:
+    """The :class:`Estimate` of ``job``: a sample of its rows run as the run runs them, in a
+    scratch folder; the bank's folder is not touched."""
     import tempfile
 
     scratch_in = tempfile.gettempdir()
-    if not items:
-        return Estimate(0, jobs, 0, before, 0.0, 0.0, 0.0, scratch_in)
-    sample = _estimate_sample(items, jobs)
+    if not job.items:
+        return Estimate(0, job.jobs, 0, before, 0.0, 0.0, 0.0, scratch_in)
+    sample = _estimate_sample(job.items, job.jobs)
     with tempfile.TemporaryDirectory(prefix="synth-bank-estimate-") as scratch:
-        probe = _run(spec, sample, Path(scratch), jobs, None, False, progress=False)
+        probe = _run(_Job(job.spec, tuple(sample), Path(scratch), job.jobs), progress=False)
+    per_row = probe.rendering / len(sample)
     return Estimate(
-        rows=len(items),
-        jobs=jobs,
-        sampled=len(sample),
-        before=before,
-        startup=probe.startup,
-        per_row=probe.rendering / len(sample),
-        finish=probe.finishing,
-        scratch_in=scratch_in,
-    )
+        len(job.items), job.jobs, len(sample), before, probe.startup, per_row, probe.finishing,
+        scratch_in,
+    )  # fmt: skip
 
 
 def _progress(total: int):
@@ -360,18 +295,31 @@ def _progress(total: int):
     return tqdm(total=total, file=sys.stderr, unit="sound")
 
 
-def _executor(spec, out_dir: Path, jobs: int, connection):
-    if connection is not None:
-        return Dask(spec, str(out_dir), connection.client)
-    if jobs == 1:
-        return Serial(spec, str(out_dir))
-    return Pool(spec, str(out_dir), jobs)
-
-
 def _jobs(jobs) -> int:
     if jobs is None:
         return os.cpu_count() or 1
     return spec_integer("jobs", jobs, 1, "must be an integer >= 1 (worker processes)")
+
+
+@dataclass(frozen=True)
+class _Job:
+    """A run's work: the checked ``spec``, the plan's ``items`` to render into ``out`` on
+    ``jobs`` workers or a Dask ``connection``, from scratch with ``force``, and the rows
+    ``again`` to render although complete."""
+
+    spec: BankSpec
+    items: tuple
+    out: Path
+    jobs: int
+    connection: object = None
+    force: bool = False
+    again: frozenset = frozenset()
+
+
+def _executor(spec, out_dir: Path, jobs: int, connection):
+    if connection is not None:
+        return Dask(spec, str(out_dir), connection.client)
+    return Serial(spec, str(out_dir)) if jobs == 1 else Pool(spec, str(out_dir), jobs)
 
 
 def run(
@@ -394,10 +342,11 @@ def run(
     if not isinstance(prune, bool):
         raise BankSpecError(f"prune={prune!r} must be True or False")
     if dry_run:
-        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again, t0)
+        job = _Job(spec, items, out, n_jobs if scheduler is None else 1, None, force, again)
+        return _dry_run(job, t0)
     connection = connect(scheduler) if scheduler is not None else None
     try:
-        return _run_in(spec, items, out, n_jobs, connection, force, again, prune)
+        return _run_in(_Job(spec, items, out, n_jobs, connection, force, again), prune)
     finally:
         if connection is not None:
             connection.close()
@@ -412,25 +361,18 @@ run.__doc__ = (
 )
 
 
-def _run_in(
-    spec, items, out: Path, n_jobs: int, connection, force: bool, again, prune: bool
-) -> BankResult:
+def _run_in(job: _Job, prune: bool) -> BankResult:
+    out = job.out
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise BankRunError(f"out_dir={str(out)!r} cannot be created: {exc}") from None
     try:
-        lock = _lock(out)
-        hold_lock(lock)
-        try:
-            result = _run(spec, items, out, n_jobs, connection, force, again)
+        with _locked(out):
+            result = _run(job)
             recorded = [str(r.get("file")) for r in mf.read_rows(out)]
-            result.orphans = mf.orphans(out, [item.file for item in items] + recorded, prune)
-            result.pruned = prune and bool(result.orphans)
+            result.prune([item.file for item in job.items] + recorded, prune)
             return result
-        finally:
-            hold_lock(None)
-            _unlock(out, lock)
     except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
         raise BankRunError(
             f"out_dir={str(out)!r}: {exc}; nothing finished was lost: run "
@@ -438,23 +380,23 @@ def _run_in(
         ) from None
 
 
-def _dry_run(spec, items, out: Path, jobs: int, force: bool, again, t0: float) -> BankResult:
+def _dry_run(job: _Job, t0: float) -> BankResult:
     """What a run would do, writing nothing: the rows to render (status ``planned``), the
     rows complete and the :class:`Estimate`; with ``force`` every row is to render."""
-    plan = {item.index: item for item in items}
+    spec, items, out = job.spec, job.items, job.out
     problem = _resume_problem(out, spec)
-    if problem is not None and not force:
+    if problem is not None and not job.force:
         raise BankSpecError(problem)
     here = problem is None and out.is_dir()
-    verified = _verified(out, mf.read_rows(out), plan) if here else []
-    kept = [r for r in verified if r["index"] not in again]
+    verified = _verified(out, mf.read_rows(out), {item.index for item in items}) if here else []
+    kept = [r for r in verified if r["index"] not in job.again]
     todo = _todo(items, kept)
-    result = BankResult(out, len(items), skipped=len(kept))
+    result = BankResult(out, planned=len(items), skipped=len(kept))
     result.planned_rows = [base_row(spec, item, "planned") for item in todo]
     if here:
-        recorded = [r["file"] for r in verified]
-        result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
-    result.estimated = _estimate(spec, todo, jobs, before=time.perf_counter() - t0)
+        result.prune([item.file for item in items] + [r["file"] for r in verified], False)
+    job = dataclasses.replace(job, items=tuple(todo))
+    result.estimated = _estimate(job, before=time.perf_counter() - t0)
     result.elapsed = time.perf_counter() - t0
     return result
 
@@ -464,17 +406,17 @@ def _todo(items, kept: list[dict]) -> list:
     return [item for item in items if item.index not in done]
 
 
-def _run(
-    spec, items, out, n_jobs, connection, force, again=frozenset(), progress: bool = True
-) -> BankResult:
-    _check_stored(out, spec, force)
+def _run(job: _Job, progress: bool = True) -> BankResult:
+    spec, items, out = job.spec, job.items, job.out
+    _check_stored(out, spec, job.force)
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
     book = mf.Manifest(out, mf.columns(spec.keys))
     verified = _verified(out, mf.read_rows(out), plan)
-    kept = [r for r in _renamed(out, spec, verified, plan) if r["index"] not in again]
-    result = BankResult(out, len(items), skipped=len(kept))
-    result.renamed = sum(1 for r in verified if r["file"] != plan[r["index"]].file)
+    names = {index: item.file for index, item in plan.items()}
+    moved, renamed = mf.renamed(out, spec.format, verified, names)
+    kept = [described(spec, plan[r["index"]], r) for r in moved if r["index"] not in job.again]
+    result = BankResult(out, planned=len(items), skipped=len(kept), renamed=renamed)
     todo = _todo(items, kept)
     book.rewrite(kept)
     for item in todo:  # a killed run's or a damaged file: published again, once
@@ -482,7 +424,7 @@ def _run(
     rows = list(kept)
     recorded = set()
     t_start = time.perf_counter()
-    executor = _executor(spec, out, n_jobs, connection) if todo else None
+    executor = _executor(spec, out, job.jobs, job.connection) if todo else None
     result.startup = time.perf_counter() - t_start
     bar = _progress(len(todo)) if progress else None
     try:

@@ -16,25 +16,21 @@ from synth.cli.recordings import add_alter_parser, add_analyze_parser
 from synth.cli.render import add_gallery_parser, add_info_parser, add_render_parser
 from synth.errors import SynthError
 
+#: Each subcommand's parser, in the order of ``synth --help``.
+SUBCOMMANDS = (
+    add_info_parser, add_render_parser, add_analyze_parser, add_alter_parser,
+    add_gallery_parser, add_presets_parser, add_materials_parser, add_bank_parser,
+    add_bank_gain_parser, add_cache_parser, add_play_parser, add_warmup_parser, add_bench_parser,
+)  # fmt: skip
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="synth", description="Physically based bouncing and impact sounds."
     )
     sub = parser.add_subparsers(dest="command", required=True)
-    add_info_parser(sub)
-    add_render_parser(sub)
-    add_analyze_parser(sub)
-    add_alter_parser(sub)
-    add_gallery_parser(sub)
-    add_presets_parser(sub)
-    add_materials_parser(sub)
-    add_bank_parser(sub)
-    add_bank_gain_parser(sub)
-    add_cache_parser(sub)
-    add_play_parser(sub)
-    add_warmup_parser(sub)
-    add_bench_parser(sub)
+    for add in SUBCOMMANDS:
+        add(sub)
     return parser
 
 

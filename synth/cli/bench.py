@@ -64,25 +64,19 @@ def add_warmup_parser(sub) -> None:
     p.set_defaults(func=_cmd_warmup)
 
 
-def names_project(pyproject: Path) -> bool:
-    """Whether ``pyproject`` is a readable ``pyproject.toml`` naming this project."""
+def find_checkout(start: Path) -> Path | None:
+    """The nearest of ``start`` and its parents with a ``benchmarks`` package and a readable
+    ``pyproject.toml`` naming this project, or None."""
     import tomllib
 
-    try:
-        return tomllib.loads(pyproject.read_text())["project"]["name"] == PROJECT
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError):
-        return False
-
-
-def find_checkout(start: Path) -> Path | None:
-    """The nearest of ``start`` and its parents with a ``benchmarks`` package and a
-    ``pyproject.toml`` naming this project, or None."""
-    start = start.resolve()
-    for folder in (start, *start.parents):
-        if (folder / "benchmarks" / "__init__.py").is_file() and names_project(
-            folder / "pyproject.toml"
-        ):
-            return folder
+    for folder in (start := start.resolve(), *start.parents):
+        if not (folder / "benchmarks" / "__init__.py").is_file():
+            continue
+        try:
+            if tomllib.loads((folder / "pyproject.toml").read_text())["project"]["name"] == PROJECT:
+                return folder
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError):
+            continue
     return None
 
 

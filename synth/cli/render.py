@@ -3,9 +3,33 @@ plot and report, all or none) and ``gallery`` (the reference renders)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 from synth.cli.common import add_preset_args, print_json
 from synth.errors import SynthError
-from synth.sound.options import OPTIONS, PRESET_SAMPLERATE, declaration, default, describe
+from synth.sound.options import OPTIONS, PRESET_SAMPLERATE, RenderOptions, default, describe
+
+#: The presets of the reference gallery in renders/ (`synth gallery`).
+GALLERY = (
+    "default",
+    "thesis-steel10-mdf18-corner",
+    "small-click-on-acrylic",
+    "ceramic-cup-on-stone",
+    "thesis-steel10-mdf18-rolling",
+    "steel-ball-rolling-on-glass-table",
+    "marble-rolling-on-wooden-floor",
+)
+
+#: The impact table's columns: heading, width and the cell of a row.
+TABLE = (
+    ("n", 4, lambda r: f"{r['n']}"),
+    ("time (s)", 10, lambda r: f"{r['time']:.5f}"),
+    ("speed (m/s)", 12, lambda r: f"{r['speed']:.5f}"),
+    ("e", 8, lambda r: "settled" if r["settled"] else f"{r['restitution']:.4f}"),
+    ("tau (us)", 9, lambda r: f"{r['contact_time'] * 1e6:.2f}"),
+    ("F_max (N)", 10, lambda r: f"{r['peak_force']:.4g}"),
+    ("lambda", 8, lambda r: f"{r['inelasticity']:.4f}"),
+)
 
 
 def _cmd_info(args):
@@ -20,30 +44,24 @@ def _cmd_info(args):
     rows = seq.table()
     ending = {} if path is None else _path_ending(path)
     if args.json:
-        description = data.get("description", "")
+        head = dict(preset=args.preset, description=data.get("description", ""))
         return print_json(
-            dict(preset=args.preset, description=description, stop_reason=seq.stop_reason)
-            | dict(duration=seq.duration, impacts=rows, **ending)
+            head | dict(stop_reason=seq.stop_reason, duration=seq.duration, impacts=rows, **ending)
         )
     if data.get("description"):
         print(data["description"])
-    print(
-        f"{'n':>4} {'time (s)':>10} {'speed (m/s)':>12} {'e':>8} {'tau (us)':>9} "
-        f"{'F_max (N)':>10} {'lambda':>8}"
-    )
-    for r in rows:
-        e = "settled" if r["settled"] else f"{r['restitution']:.4f}"
-        print(
-            f"{r['n']:>4} {r['time']:>10.5f} {r['speed']:>12.5f} {e:>8} "
-            f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
-        )
+    for cells in [[f"{h:>{w}}" for h, w, _ in TABLE]] + [
+        [f"{cell(r):>{w}}" for _, w, cell in TABLE] for r in rows
+    ]:
+        print(" ".join(cells))
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
     if path is not None:
+        e = ending
         print(
-            f"rolled {ending['rolling_seconds']:.3f} s from {ending['rolling_start']} s at "
-            f"{ending['rolling_speed']:.4g} m/s; the path ended: {ending['path_end']} at "
-            f"{ending['path_end_time']:.4f} s, ({ending['path_end_point'][0]:.4f}, "
-            f"{ending['path_end_point'][1]:.4f}) m"
+            f"rolled {e['rolling_seconds']:.3f} s from {e['rolling_start']} s at "
+            f"{e['rolling_speed']:.4g} m/s; the path ended: {e['path_end']} at "
+            f"{e['path_end_time']:.4f} s, ({e['path_end_point'][0]:.4f}, "
+            f"{e['path_end_point'][1]:.4f}) m"
         )
     return 0
 
@@ -75,21 +93,10 @@ def _path_ending(path) -> dict:
     )
 
 
-def _budget_seconds(budget) -> str:
-    """The time budgets in seconds at the measured :class:`synth.cost.Rates` (radiation at
-    the rectangle rule's rate), or "" without them."""
-    from synth import cost
-
-    rates = cost.Rates.load()
-    if rates is None:
-        return ""
-    solver = budget.max_solver_flops / rates.solver
-    radiation = budget.max_radiation_work / rates.radiation["rectangle"]
-    return f" (about {solver:.3g} s and {radiation:.3g} s of radiation at the measured rates)"
-
-
 def _print_cost(scene, section: dict, as_json: bool) -> int:
-    """``synth info --cost``: the render's cost estimate and what a render would refuse."""
+    """``synth info --cost``: the render's cost estimate and what a render would refuse; the
+    budgets in seconds at the measured :class:`synth.cost.Rates` (radiation at the
+    rectangle rule's rate) where they are recorded."""
     from dataclasses import asdict
 
     from synth import cost
@@ -101,11 +108,16 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
         return print_json(dict(asdict(estimate), budget=asdict(budget), refused=too_big))
     for name, value in estimate.rows():
         print(f"{name:<28} {value}")
+    rates = cost.Rates.load()
+    seconds = "" if rates is None else (
+        f" (about {budget.max_solver_flops / rates.solver:.3g} s and "
+        f"{budget.max_radiation_work / rates.radiation['rectangle']:.3g} s of radiation at "
+        f"the measured rates)"
+    )  # fmt: skip
     print(
         f"budget: {budget.max_modes} modes, {budget.max_pulse_points} pulse points, "
         f"{budget.max_memory_bytes / 2**20:.0f} MiB, {budget.max_solver_flops:.3g} solver "
-        f"flop, {budget.max_radiation_work:.3g} radiation rectangle-term equivalents"
-        f"{_budget_seconds(budget)}"
+        f"flop, {budget.max_radiation_work:.3g} radiation rectangle-term equivalents{seconds}"
     )
     for reason in too_big:
         print(f"a render would be refused: {reason}")
@@ -119,14 +131,13 @@ def render_options(scene_render: dict, args) -> tuple[dict, str | None]:
     and the output file's subtype."""
     opts = dict(scene_render)
     for key in OPTIONS + ("subtype",):
-        value = getattr(args, key, None)
-        if value is not None:
-            opts[key] = value
-    subtype = opts.pop("subtype", None)
-    return opts, subtype
+        if getattr(args, key, None) is not None:
+            opts[key] = getattr(args, key)
+    return opts, opts.pop("subtype", None)
 
 
 def _report(rendered, data, preset) -> dict:
+    onsets = zip(rendered.impacts.table(), rendered.onsets)
     return dict(
         preset=str(preset),
         description=data.get("description", ""),
@@ -135,17 +146,31 @@ def _report(rendered, data, preset) -> dict:
         units=rendered.units,
         gain=rendered.gain,
         settings=dict(rendered.settings),
-        impacts=[
-            dict(row, onset=float(onset))
-            for row, onset in zip(rendered.impacts.table(), rendered.onsets)
-        ],
+        impacts=[dict(row, onset=float(onset)) for row, onset in onsets],
     )
+
+
+def _sequence(args, scene, opts: dict):
+    """The impacts of a perception stimulus (``--restitution-scale``, ``--timing-from``)
+    under the preset's stop rules, or None."""
+    if args.timing_from is None and args.restitution_scale is None:
+        return None
+    from synth.io.presets import load_preset_with_options
+    from synth.stimuli import sequences as stimuli
+
+    k = 1.0 if args.restitution_scale is None else args.restitution_scale
+    bounces = RenderOptions(**opts).bounces()
+    if args.timing_from is None:
+        return stimuli.scaled_sequence(scene, k, **bounces)
+    timing = load_preset_with_options(args.timing_from)[0]
+    return stimuli.mismatch_sequence(timing, scene, restitution_scale=k, **bounces)
 
 
 def _cmd_render(args):
     from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
+    from synth.store.atomic import Outputs
 
     outputs = Outputs(  # every output path checked before any work
         {"output": args.output, "report": args.report, "plot": args.plot},
@@ -153,20 +178,7 @@ def _cmd_render(args):
     )
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args)
-    if args.timing_from is not None or args.restitution_scale is not None:
-        from synth.sound.options import RenderOptions
-        from synth.stimuli import sequences as stimuli
-
-        k = 1.0 if args.restitution_scale is None else args.restitution_scale
-        bounces = RenderOptions(**opts).bounces()  # the preset's stop rules
-        if args.timing_from is None:
-            opts["sequence"] = stimuli.scaled_sequence(scene, k, **bounces)
-        else:
-            timing = load_preset_with_options(args.timing_from)[0]
-            opts["sequence"] = stimuli.mismatch_sequence(
-                timing, scene, restitution_scale=k, **bounces
-            )
-    rendered = render(scene, **opts)
+    rendered = render(scene, **opts, sequence=_sequence(args, scene, opts))
     with outputs:
         audio_io.write_audio(
             outputs.staged("output"), rendered.audio, rendered.samplerate, subtype=subtype
@@ -177,91 +189,13 @@ def _cmd_render(args):
             from synth.io.plot import plot_render
 
             plot_render(rendered, outputs.staged("plot"))
+    info = rendered.info
     print(
         f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
         f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
-        f"{rendered.info.n_modes_rendered} of {rendered.info.n_modes} modes, "
-        f"normalize={rendered.info.options.normalize}"
+        f"{info.n_modes_rendered} of {info.n_modes} modes, normalize={info.options.normalize}"
     )
     return 0
-
-
-class Outputs:
-    """The output files of one command, written all or none: each path checked before any
-    work; inside ``with outputs:`` each file is written to a temporary beside its target
-    (:meth:`staged`), renamed onto it only when the block ends without an error."""
-
-    def __init__(self, paths: dict, suffixes: dict | None = None):
-        from pathlib import Path
-
-        from synth.store.audio import check_output_path
-
-        self.paths = {k: Path(v) for k, v in paths.items() if v}
-        _refuse_shared_paths(self.paths)
-        for field, path in self.paths.items():
-            check_output_path(path, field, (suffixes or {}).get(field))
-        self.temporaries: dict = {}
-
-    def staged(self, field: str):
-        from synth.store.atomic import temporary_name
-
-        target = self.paths[field]
-        tmp = target.with_name(temporary_name(target.suffix))
-        self.temporaries[field] = tmp
-        return tmp
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, kind, exc, tb):
-        import os
-
-        try:
-            if kind is None:
-                for field, tmp in self.temporaries.items():
-                    os.replace(tmp, self.paths[field])
-            elif exc is not None:
-                self._name_the_targets(exc)
-        finally:
-            for tmp in self.temporaries.values():
-                if tmp.exists():
-                    tmp.unlink()
-        return False
-
-    def _name_the_targets(self, exc: BaseException) -> None:
-        """Put the user's paths where ``exc`` names a temporary (any engine temporary in a
-        target's folder with its suffix: a writer may stage its own beside ours)."""
-        import functools
-        import re
-
-        from synth.store.atomic import TEMPORARY_PREFIX
-
-        for field in self.temporaries:
-            target = self.paths[field]
-            hidden = re.compile(
-                re.escape(str(target.with_name(TEMPORARY_PREFIX)))
-                + r"\d+-[0-9a-f]+\.part"
-                + re.escape(target.suffix)
-            )
-            named = functools.partial(hidden.sub, lambda _, path=str(target): path)
-            if isinstance(exc, OSError) and exc.filename is not None:
-                exc.filename = named(str(exc.filename))
-            exc.args = tuple(named(a) if isinstance(a, str) else a for a in exc.args)
-
-
-def _refuse_shared_paths(paths: dict) -> None:
-    """Refuse two outputs on one file (compared resolved) before any work: only the last
-    written would be left."""
-    seen: dict = {}
-    for field, path in paths.items():
-        key = path.resolve()
-        if key in seen:
-            other = seen[key]
-            raise SynthError(
-                f"{other}={str(paths[other])!r} and {field}={str(path)!r} are the same file; "
-                f"give each output its own path (nothing was written)"
-            )
-        seen[key] = field
 
 
 def _write_json(path, obj):
@@ -275,18 +209,6 @@ def _write_json(path, obj):
     write_json_atomically(path, obj, error=SynthError)
 
 
-#: The presets of the reference gallery in renders/ (`synth gallery`).
-GALLERY = (
-    "default",
-    "thesis-steel10-mdf18-corner",
-    "small-click-on-acrylic",
-    "ceramic-cup-on-stone",
-    "thesis-steel10-mdf18-rolling",
-    "steel-ball-rolling-on-glass-table",
-    "marble-rolling-on-wooden-floor",
-)
-
-
 def _cmd_gallery(args):
     from pathlib import Path
 
@@ -298,8 +220,7 @@ def _cmd_gallery(args):
     out = Path(args.output_dir)
     if not out.is_dir():
         raise SynthError(f"output_dir={str(out)!r} is not a directory")
-    names = args.names or GALLERY
-    for name in names:
+    for name in args.names or GALLERY:
         scene, section, data = load_preset_with_options(name)
         opts, subtype = render_options(section, args)
         rendered = render(scene, **opts)
@@ -328,34 +249,30 @@ def add_info_parser(sub) -> None:
     p.set_defaults(func=_cmd_info)
 
 
-def add_option_flags(p, names) -> None:
-    """A flag for each render option of ``names`` from its declaration
-    (:class:`synth.sound.options.RenderOptions`); unset, the preset's value holds."""
-    for name in names:
-        d = declaration(name)
-        value = default(name)
-        shown = PRESET_SAMPLERATE if name == "samplerate" else value
-        where = "the Nyquist frequency" if value is None and name != "samplerate" else shown
+def add_option_flags(p, fields) -> None:
+    """A flag for each render option of ``fields`` (:class:`RenderOptions`' fields), its type
+    the field's, its help the declaration's; unset, the preset's value holds."""
+    for f in fields:
+        d = f.metadata["option"]
+        value = PRESET_SAMPLERATE if f.name == "samplerate" else default(f.name)
         p.add_argument(
-            "--" + name.replace("_", "-"),
-            type=OPTION_TYPES.get(name, float),
+            "--" + f.name.replace("_", "-"),
+            type={"int": int, "str": str}.get(f.type, float),
             choices=d.choices,
             metavar=d.metavar,
-            help=f"{describe(name)}; default: the preset's, else {where}",
+            help=f"{describe(f.name)}; default: the preset's, else "
+            f"{'the Nyquist frequency' if value is None else value}",
         )
-
-
-#: The command line's types of the render options that are not real numbers.
-OPTION_TYPES = {"samplerate": int, "normalize": str, "pulse_points": int, "max_impacts": int}
 
 
 def add_render_parser(sub) -> None:
     p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")
     add_preset_args(p)
     p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
-    add_option_flags(p, OPTIONS[:1])
+    fields = dataclasses.fields(RenderOptions)
+    add_option_flags(p, fields[:1])
     p.add_argument("--subtype", help="soundfile subtype: PCM_16, PCM_24 (default), FLOAT (WAV) ...")
-    add_option_flags(p, OPTIONS[1:])
+    add_option_flags(p, fields[1:])
     p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
     p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
     p.add_argument(

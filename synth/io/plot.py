@@ -81,32 +81,28 @@ def _count(n: int, noun: str) -> str:
 
 
 def _title(settings, samplerate, units, gain, n_impacts, frames, channels) -> str:
-    if settings is None:
-        settings = {}
+    settings = {} if settings is None else settings
     if not hasattr(settings, "get"):
         raise ParameterError(f"render.settings={settings!r} must be a mapping")
     parts = [f"samplerate={settings.get('samplerate', samplerate)} Hz"]
-    for key in ("normalize", "listener"):
-        if key in settings:
-            parts.append(f"{key}={settings[key]}")
-    line1 = textwrap.fill(", ".join(parts), width=120)
-    line2 = (
-        f"{_count(n_impacts, 'impact')}, {frames / samplerate:.4g} s, "
-        f"{_count(channels, 'channel')}, gain {gain:.4g} full scale per {units}"
+    parts += [f"{key}={settings[key]}" for key in ("normalize", "listener") if key in settings]
+    return (
+        f"{textwrap.fill(', '.join(parts), width=120)}\n{_count(n_impacts, 'impact')}, "
+        f"{frames / samplerate:.4g} s, {_count(channels, 'channel')}, gain {gain:.4g} full "
+        f"scale per {units}"
     )
-    return f"{line1}\n{line2}"
 
 
 def _draw_waveform(ax, t, x, labels):
     """Each channel as a line, or as its min/max envelope when too long to see."""
     frames = x.shape[0]
+    starts = np.linspace(0, frames, ENVELOPE_BINS + 1).astype(int)[:-1]
     for c in range(x.shape[1]):
         if frames > ENVELOPE_THRESHOLD:
-            edges = np.linspace(0, frames, ENVELOPE_BINS + 1).astype(int)
-            lo = np.minimum.reduceat(x[:, c], edges[:-1])
-            hi = np.maximum.reduceat(x[:, c], edges[:-1])
-            tb = t[edges[:-1]]
-            ax.fill_between(tb, lo, hi, step="post", linewidth=0.3, alpha=0.8, label=labels[c])
+            lo, hi = np.minimum.reduceat(x[:, c], starts), np.maximum.reduceat(x[:, c], starts)
+            ax.fill_between(
+                t[starts], lo, hi, step="post", linewidth=0.3, alpha=0.8, label=labels[c]
+            )
         else:
             ax.plot(t, x[:, c], linewidth=0.6, label=labels[c])
 
@@ -139,10 +135,9 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     # A narrow second column holds the spectrogram's colour bar, so that the three
     # panels share one time-axis width.
     grid = fig.add_gridspec(3, 2, height_ratios=(1.0, 1.3, 1.0), width_ratios=(1.0, 0.025))
-    ax_w = fig.add_subplot(grid[0, 0])
-    ax_s = fig.add_subplot(grid[1, 0])
-    ax_f = fig.add_subplot(grid[2, 0])
-    ax_bar = fig.add_subplot(grid[1, 1])
+    ax_w, ax_s, ax_f, ax_bar = (
+        fig.add_subplot(grid[i, j]) for i, j in ((0, 0), (1, 0), (2, 0), (1, 1))
+    )
     fig.suptitle(_title(settings, sr, units, gain, len(impacts), frames, channels), fontsize=10)
 
     _waveform_panel(ax_w, t, x, times, sr, gain, units)
@@ -194,14 +189,8 @@ def _spectrogram_panel(fig, ax_s, ax_bar, x, sr, times, units) -> None:
     nper = 2 ** max(5, int(round(math.log2(SPECTROGRAM_FRAME * sr))))
     nper = min(nper, max(32, 2 ** int(math.floor(math.log2(max(frames // 4, 1))))), frames)
     f, ts, sxx = signal.spectrogram(
-        x[:, 0],
-        fs=sr,
-        window="hann",
-        nperseg=nper,
-        noverlap=(3 * nper) // 4,
-        scaling="density",
-        mode="psd",
-    )
+        x[:, 0], fs=sr, window="hann", nperseg=nper, noverlap=(3 * nper) // 4, mode="psd"
+    )  # power spectral density
     with np.errstate(divide="ignore"):
         db = 10.0 * np.log10(sxx)
     top = float(np.max(db[np.isfinite(db)])) if np.any(np.isfinite(db)) else 0.0
@@ -210,26 +199,13 @@ def _spectrogram_panel(fig, ax_s, ax_bar, x, sr, times, units) -> None:
     hop = (nper - (3 * nper) // 4) / sr
     t0, t1 = (ts[0] - hop / 2, ts[-1] + hop / 2) if ts.size > 1 else (0.0, frames / sr)
     image = ax_s.imshow(
-        db,
-        origin="lower",
-        aspect="auto",
-        cmap="magma",
-        extent=(t0, t1, 0.0, sr / 2000.0),
-        interpolation="nearest",
-        vmin=top - SPECTROGRAM_RANGE_DB,
-        vmax=top,
-    )
+        db, origin="lower", aspect="auto", cmap="magma", extent=(t0, t1, 0.0, sr / 2000.0),
+        interpolation="nearest", vmin=top - SPECTROGRAM_RANGE_DB, vmax=top,
+    )  # fmt: skip
     ax_s.set_xlim(0.0, frames / sr)
     ax_s.set_ylim(0.0, sr / 2000.0)
-    ax_s.plot(
-        times,
-        np.ones_like(times),
-        "v",
-        color="tab:cyan",
-        markersize=5,
-        transform=ax_s.get_xaxis_transform(),
-        clip_on=False,
-    )
+    marks = dict(color="tab:cyan", markersize=5, transform=ax_s.get_xaxis_transform())
+    ax_s.plot(times, np.ones_like(times), "v", clip_on=False, **marks)
     ax_s.set_xlabel("Time (s)")
     ax_s.set_ylabel("Frequency (kHz)")
     ax_s.set_title(

@@ -69,17 +69,9 @@ PACKAGE_PRESETS = Path(__file__).resolve().parents[1] / "presets"
 def preset_dirs() -> list[Path]:
     """Folders searched for a preset name, in order: ``$SYNTH_PRESETS``, ``./presets``, the
     package's."""
-    dirs = []
-    if os.environ.get("SYNTH_PRESETS"):
-        dirs.append(Path(os.environ["SYNTH_PRESETS"]))
-    dirs.append(Path.cwd() / "presets")
-    dirs.append(PACKAGE_PRESETS)
-    seen, out = set(), []
-    for d in dirs:
-        if d not in seen and d.is_dir():
-            seen.add(d)
-            out.append(d)
-    return out
+    env = [Path(os.environ["SYNTH_PRESETS"])] if os.environ.get("SYNTH_PRESETS") else []
+    dirs = env + [Path.cwd() / "presets", PACKAGE_PRESETS]
+    return [d for d in dict.fromkeys(dirs) if d.is_dir()]
 
 
 def available() -> dict[str, Path]:
@@ -141,8 +133,7 @@ def read(path, error=PresetError) -> dict:
 
 def _override_list(overrides) -> list[str]:
     """``overrides`` checked to be a list of ``key=value`` strings (not one string)."""
-    if overrides is None:
-        return []
+    overrides = [] if overrides is None else overrides
     if isinstance(overrides, (str, bytes)) or not isinstance(overrides, (list, tuple)):
         raise PresetError(
             f"overrides={overrides!r} must be a list of 'section.key=value' strings "
@@ -241,11 +232,8 @@ def _damping(damping, where: str):
     ``{alpha, beta}`` a :class:`Rayleigh`, or None."""
     if damping is None or isinstance(damping, LossFactor | Rayleigh):
         return damping
-    law = None
-    if isinstance(damping, dict):
-        law = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}.get(
-            frozenset(damping)
-        )
+    laws = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}
+    law = laws.get(frozenset(damping)) if isinstance(damping, dict) else None
     if law is None:
         raise PresetError(
             f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
@@ -257,19 +245,17 @@ def _damping(damping, where: str):
 
 
 def _require(section: dict, keys, where: str) -> None:
+    """Refuse ``section`` without one of ``keys`` (or, given a dataclass, its required
+    positional fields)."""
+    if isinstance(keys, type):
+        keys = [
+            f.name
+            for f in dataclasses.fields(keys)
+            if f.default is f.default_factory is dataclasses.MISSING and not f.kw_only
+        ]
     for k in keys:
         if k not in section:
             raise PresetError(f"{where}.{k} is missing (required keys: {', '.join(keys)})")
-
-
-def _required_fields(cls) -> tuple[str, ...]:
-    return tuple(
-        f.name
-        for f in dataclasses.fields(cls)
-        if f.default is dataclasses.MISSING
-        and f.default_factory is dataclasses.MISSING
-        and f.kw_only is False
-    )
 
 
 def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
@@ -289,7 +275,7 @@ def _scene_from_dict(data, source):
     height, position, velocity = _drop(data["drop"], source)
     rolling = None
     if "rolling" in data:
-        _require(data["rolling"], _required_fields(Rolling), "rolling")
+        _require(data["rolling"], Rolling, "rolling")
         rolling = Rolling(**data["rolling"])
     listener = _listener(data["listener"], source) if "listener" in data else None
     contact = Contact(**_contact_section(data)) if "contact" in data else None
@@ -344,8 +330,8 @@ def _bodies(data: dict, source: str):
     if "material" not in b or "material" not in p:
         raise PresetError(f"{source}: ball.material and plate.material are required")
     ball_class = _ball_class(b, source)
-    _require(b, _required_fields(Ball), "ball")
-    _require(p, _required_fields(Plate), "plate")
+    _require(b, Ball, "ball")
+    _require(p, Plate, "plate")
     b["material"] = _material(b["material"], "ball.material")
     p["material"] = _material(p["material"], "plate.material")
     for sec, kw in (("ball", b), ("plate", p)):
@@ -359,17 +345,13 @@ def _drop(drop: dict, source: str):
     """``(height, position, velocity)`` of ``[drop]``: m, m from a corner, m/s."""
     if "height" not in drop:
         raise PresetError(f"{source}: drop.height is required (metres)")
-    position = drop.get("position")
-    if position is not None and not isinstance(position, list):
-        raise PresetError(f"{source}: drop.position={position!r} must be [x, y] in metres")
-    velocity = drop.get("velocity")
-    if velocity is not None and not isinstance(velocity, list):
-        raise PresetError(f"{source}: drop.velocity={velocity!r} must be [vx, vy] in m/s")
-    return (
-        drop["height"],
-        None if position is None else tuple(position),
-        None if velocity is None else tuple(velocity),
-    )
+    vectors = []
+    for key, shape in (("position", "[x, y] in metres"), ("velocity", "[vx, vy] in m/s")):
+        value = drop.get(key)
+        if value is not None and not isinstance(value, list):
+            raise PresetError(f"{source}: drop.{key}={value!r} must be {shape}")
+        vectors.append(None if value is None else tuple(value))
+    return drop["height"], *vectors
 
 
 def _listener(section: dict, source: str):
@@ -420,7 +402,6 @@ def _render_section(section: dict, source: str) -> dict:
     from synth.sound.options import OPTIONS
 
     _check_keys("render", section, OPTIONS + ("subtype",), source)
-    section = {"samplerate": PRESET_SAMPLERATE, **section}
     try:
         render_options_of(section)
     except ParameterError as exc:
@@ -434,7 +415,7 @@ def _render_section(section: dict, source: str) -> dict:
                 f"{source}: render.subtype={st!r} must be a soundfile subtype "
                 f"such as 'PCM_16', 'PCM_24' or 'FLOAT'"
             )
-    return dict(section)
+    return {"samplerate": PRESET_SAMPLERATE, **section}
 
 
 def render_options_of(section: dict):
@@ -448,11 +429,8 @@ def render_options_of(section: dict):
 
 def _fixed_defaults(cls) -> dict:
     """The fields of ``cls`` with a fixed default (None is derived from other keys)."""
-    return {
-        f.name: f.default
-        for f in dataclasses.fields(cls)
-        if f.default is not dataclasses.MISSING and f.default is not None
-    }
+    fields = dataclasses.fields(cls)
+    return {f.name: f.default for f in fields if f.default not in (dataclasses.MISSING, None)}
 
 
 def with_defaults(data: dict, *, varied=()) -> dict:
@@ -514,6 +492,4 @@ def render_preset(name_or_path, *, overrides=(), **options) -> Render:
     from synth.sound.render import render
 
     scene, section, _ = load_preset_with_options(name_or_path, overrides)
-    opts = {k: v for k, v in section.items() if k != "subtype"}
-    opts.update(options)
-    return render(scene, **opts)
+    return render(scene, **({k: v for k, v in section.items() if k != "subtype"} | options))

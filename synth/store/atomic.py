@@ -5,14 +5,19 @@ never sees a partial file and a failure leaves the target untouched.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
+import re
 import secrets
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from synth.errors import SynthError
+
 __all__ = [
+    "Outputs",
     "remove_stale_temporaries",
     "temporary_name",
     "temporary_sibling",
@@ -153,3 +158,60 @@ def write_json_atomically(
             fh.write("\n")
 
     return write_atomically(path, write, error=error)
+
+
+class Outputs:
+    """The output files of one command, written all or none: each path checked before any
+    work (:func:`synth.store.audio.check_output_path`; two outputs on one file refused);
+    inside ``with outputs:`` each file is written to a temporary beside its target
+    (:meth:`staged`), renamed onto it only when the block ends without an error."""
+
+    def __init__(self, paths: dict, suffixes: dict | None = None):
+        from synth.store.audio import check_output_path
+
+        self.paths = {k: Path(v) for k, v in paths.items() if v}
+        seen: dict = {}
+        for field, path in self.paths.items():
+            other = seen.setdefault(path.resolve(), field)
+            if other != field:
+                raise SynthError(
+                    f"{other}={str(self.paths[other])!r} and {field}={str(path)!r} are the same "
+                    f"file; give each output its own path (nothing was written)"
+                )
+        for field, path in self.paths.items():
+            check_output_path(path, field, (suffixes or {}).get(field))
+        self.temporaries: dict = {}
+
+    def staged(self, field: str) -> Path:
+        target = self.paths[field]
+        self.temporaries[field] = target.with_name(temporary_name(target.suffix))
+        return self.temporaries[field]
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        try:
+            if kind is None:
+                for field, tmp in self.temporaries.items():
+                    os.replace(tmp, self.paths[field])
+            elif exc is not None:
+                self._name_the_targets(exc)
+        finally:
+            for tmp in self.temporaries.values():
+                tmp.unlink(missing_ok=True)
+        return False
+
+    def _name_the_targets(self, exc: BaseException) -> None:
+        """Put the user's paths where ``exc`` names a temporary (any engine temporary in a
+        target's folder with its suffix: a writer may stage its own beside ours)."""
+        for target in map(self.paths.get, self.temporaries):
+            hidden = re.compile(
+                re.escape(str(target.with_name(TEMPORARY_PREFIX)))
+                + r"\d+-[0-9a-f]+\.part"
+                + re.escape(target.suffix)
+            )
+            named = functools.partial(hidden.sub, lambda _, path=str(target): path)
+            if isinstance(exc, OSError) and exc.filename is not None:
+                exc.filename = named(str(exc.filename))
+            exc.args = tuple(named(a) if isinstance(a, str) else a for a in exc.args)

@@ -58,11 +58,8 @@ MAX_FILE_SAMPLERATE = 768_000
 
 #: Quantisation step of the integer subtypes, in units of full scale.
 PCM_STEP = {
-    "PCM_S8": 2.0**-7,
-    "PCM_U8": 2.0**-7,
-    "PCM_16": 2.0**-15,
-    "PCM_24": 2.0**-23,
-    "PCM_32": 2.0**-31,
+    name: 2.0 ** (1 - bits)
+    for name, bits in (("PCM_S8", 8), ("PCM_U8", 8), ("PCM_16", 16), ("PCM_24", 24), ("PCM_32", 32))
 }
 
 
@@ -310,12 +307,13 @@ def normalize(
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
     u = checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
-    target_peak_db = checks.real("peak_db", peak_db, "dBFS")
-    if target_peak_db > 0.0:
-        raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
-    target_lufs = checks.real("loudness_lufs", loudness_lufs, "LUFS")
-    if target_lufs > 0.0:
-        raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be <= 0 (LUFS)")
+    for name, value, unit in (
+        ("peak_db", peak_db, "dBFS"),
+        ("loudness_lufs", loudness_lufs, "LUFS"),
+    ):
+        if checks.real(name, value, unit) > 0.0:
+            raise ParameterError(f"{name}={value!r} must be <= 0 ({unit})")
+    target_peak_db, target_lufs = float(peak_db), float(loudness_lufs)
     limit = None if max_peak is None else checks.positive("max_peak", max_peak, "full scale")
     dtype = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
     x = a.astype(np.float64)

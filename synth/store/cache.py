@@ -190,19 +190,6 @@ def _entries(directory: Path) -> list[DiskEntry]:
     return out
 
 
-def _stale_temporaries(directory: Path, now: float) -> list[Path]:
-    out = []
-    for p in directory.iterdir():
-        if not _is_temporary(p):
-            continue
-        try:
-            if now - p.stat().st_mtime > STALE_TEMPORARY_AGE:
-                out.append(p)
-        except FileNotFoundError:
-            continue
-    return out
-
-
 def _evict(limit: int, *, keep: Path | None = None) -> int:
     """Delete the least recently used entries until their total is at most ``limit``
     bytes (``keep``, the entry just written, last), and dead writers' temporaries; the
@@ -211,8 +198,10 @@ def _evict(limit: int, *, keep: Path | None = None) -> int:
         directory = cache_dir()
         if not directory.is_dir():
             return 0
-        for p in _stale_temporaries(directory, time.time()):
-            _unlink(p)
+        now = time.time()
+        for p in filter(_is_temporary, directory.iterdir()):
+            if now - _mtime(p) > STALE_TEMPORARY_AGE:
+                _unlink(p)
         entries = sorted(_entries(directory), key=lambda e: (e.path == keep, e.used))
     except (OSError, RuntimeError):
         return 0
@@ -223,6 +212,14 @@ def _evict(limit: int, *, keep: Path | None = None) -> int:
         _unlink(e.path)
         total -= e.size
     return total
+
+
+def _mtime(p: Path) -> float:
+    """``p``'s modification time, s (inf if another process removed it meanwhile)."""
+    try:
+        return p.stat().st_mtime
+    except FileNotFoundError:
+        return math.inf
 
 
 def _unlink(p: Path) -> bool:
@@ -250,17 +247,11 @@ def disk_info() -> DiskInfo:
     directory = cache_dir()
     entries = _entries(directory) if directory.is_dir() else []
     kinds: dict = {}
-    for e in entries:
-        kind = e.path.stem.rsplit("-", 1)[0]
-        n, b = kinds.get(kind, (0, 0))
+    for e in sorted(entries, key=lambda e: e.path.stem):
+        n, b = kinds.get(kind := e.path.stem.rsplit("-", 1)[0], (0, 0))
         kinds[kind] = (n + 1, b + e.size)
-    return DiskInfo(
-        directory,
-        len(entries),
-        sum(e.size for e in entries),
-        max_bytes(),
-        dict(sorted(kinds.items())),
-    )
+    size = sum(e.size for e in entries)
+    return DiskInfo(directory, len(entries), size, max_bytes(), dict(sorted(kinds.items())))
 
 
 def clear_disk() -> tuple[int, int]:
@@ -275,8 +266,7 @@ def clear_disk() -> tuple[int, int]:
         except FileNotFoundError:
             continue
         if _unlink(p):
-            n += 1
-            freed += size
+            n, freed = n + 1, freed + size
     return n, freed
 
 
@@ -304,8 +294,7 @@ class MemoryCache:
         """Forget the results held and reset the counters."""
         with self._lock:
             self._items.clear()
-            for k in self._stats:
-                self._stats[k] = 0
+            self._stats = dict.fromkeys(self._stats, 0)
 
     def count(self, name: str) -> None:
         """Add one to the counter ``name`` (``computed``, ``disk_writes``)."""
@@ -328,11 +317,8 @@ class MemoryCache:
             self._stats[self._computed if source == "computed" else "disk_hits"] += 1
             self._items[key] = value
             self._items.move_to_end(key)
-            if self.max_entries is not None:
-                while len(self._items) > self.max_entries:
-                    self._items.popitem(last=False)
-            if self.max_bytes is not None:
-                total = sum(v.nbytes for v in self._items.values())
-                while total > self.max_bytes and len(self._items) > 1:
-                    _, dropped = self._items.popitem(last=False)
-                    total -= dropped.nbytes
+            while self.max_entries is not None and len(self._items) > self.max_entries:
+                self._items.popitem(last=False)
+            total = 0 if self.max_bytes is None else sum(v.nbytes for v in self._items.values())
+            while self.max_bytes is not None and total > self.max_bytes and len(self._items) > 1:
+                total -= self._items.popitem(last=False)[1].nbytes

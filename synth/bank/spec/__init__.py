@@ -7,8 +7,6 @@ adds rows. ``restitution_scale`` scales the impacts
 (:func:`synth.stimuli.sequences.scaled_sequence`); tags, labels, the preset's name and the
 name template change no sound (:func:`compared_form`). A spec that cannot be run is a
 :class:`BankSpecError` naming the key, its value and what is allowed, before any work.
-Modules: :mod:`~.model`, :mod:`~.loading`, :mod:`~.sampling`, :mod:`~.naming`,
-:mod:`~.planning`.
 """
 
 from __future__ import annotations

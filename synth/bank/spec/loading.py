@@ -130,12 +130,7 @@ def _base(base_raw: dict, render_section, preset_path) -> tuple[dict, dict]:
     defaults, and its checked render options."""
     if not isinstance(render_section, dict):
         raise spec_error("render", render_section, "must be a table of render options")
-    base = dict(base_raw)
-    base["render"] = {
-        **RENDER_DEFAULTS,
-        **base_raw.get("render", {}),
-        **render_section,
-    }
+    base = dict(base_raw, render=RENDER_DEFAULTS | base_raw.get("render", {}) | render_section)
     try:
         _, options = presets.scene_from_dict(base, str(preset_path))
     except ParameterError as exc:
@@ -162,18 +157,9 @@ def _trim(value) -> dict | None:
         raise spec_error("trim.below_db", out["below_db"], "must be < 0 (dB below the peak)")
     if not 0.0 <= out["fade"] <= 1.0:
         raise spec_error("trim.fade", out["fade"], "must be in [0, 1] (s)")
-    if out["max_length"] is not None:
-        if not out["max_length"] > out["fade"]:
-            raise spec_error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
+    if out["max_length"] is not None and not out["max_length"] > out["fade"]:
+        raise spec_error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
     return out
-
-
-def _tag_value(where: str, value) -> None:
-    if isinstance(value, str) and value:
-        return
-    if isinstance(value, bool) or (isinstance(value, (int, float)) and math.isfinite(value)):
-        return
-    raise spec_error(where, value, "must be a non-empty text, a finite number or a boolean")
 
 
 def _tags(value) -> list | dict | None:
@@ -184,7 +170,11 @@ def _tags(value) -> list | dict | None:
         return list(value)
     if isinstance(value, dict):
         for name, v in value.items():
-            _tag_value(f"tags.{name}", v)
+            number = isinstance(v, (int, float)) and math.isfinite(v)
+            if not ((isinstance(v, str) and v) or isinstance(v, bool) or number):
+                raise spec_error(
+                    f"tags.{name}", v, "must be a non-empty text, a finite number or a boolean"
+                )
         return dict(value)
     raise spec_error(
         "tags",
@@ -220,11 +210,10 @@ def _check_subtype(fmt: str, subtype: str) -> None:
 def _allowed_keys() -> list[str]:
     from synth.sound.options import OPTIONS
 
-    keys = [RESTITUTION_SCALE] + list(presets.TOP_LEVEL)
+    keys = [RESTITUTION_SCALE] + [k for k in presets.TOP_LEVEL if k != "description"]
     for section, fields in presets.SECTIONS.items():
-        for f in OPTIONS + ("subtype",) if fields is None else fields:
-            keys.append(f"{section}.{f}")
-    return [k for k in keys if k != "description"]
+        keys += [f"{section}.{f}" for f in (OPTIONS + ("subtype",) if fields is None else fields)]
+    return keys
 
 
 def _axis(key: str, value, base_raw: dict):
@@ -269,10 +258,9 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
             where, value, "needs min and max of one shape (two numbers, or two lists of one length)"
         )
     for a, b in zip(np.atleast_1d(lo), np.atleast_1d(hi)):
-        if a > b:
-            raise spec_error(where, value, f"has min > max ({a!r} > {b!r})")
-        if log and a <= 0.0:
-            raise spec_error(where, value, "with log = true needs min > 0")
+        if a > b or (log and a <= 0.0):
+            why = f"has min > max ({a!r} > {b!r})" if a > b else "with log = true needs min > 0"
+            raise spec_error(where, value, why)
     return RangeAxis(key, lo, hi, log, steps)
 
 

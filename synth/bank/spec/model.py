@@ -91,8 +91,7 @@ class RangeAxis:
 
     def position(self, u: np.ndarray):
         """The value at fractions ``u`` (one per component, in [0, 1]) of the range."""
-        lo = np.atleast_1d(np.asarray(self.low, dtype=float))
-        hi = np.atleast_1d(np.asarray(self.high, dtype=float))
+        lo, hi = (np.atleast_1d(np.asarray(b, dtype=float)) for b in (self.low, self.high))
         if self.log:
             v = np.exp(np.log(lo) + u * (np.log(hi) - np.log(lo)))
         else:
@@ -143,9 +142,9 @@ class BankSpec:
             if isinstance(a, ListAxis):
                 axes[a.key] = list(a.values)
             else:
+                steps = {} if a.steps is None else {"steps": a.steps}
                 axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
-                if a.steps is not None:
-                    axes[a.key]["steps"] = a.steps
+                axes[a.key].update(steps)
         return {
             "preset": self.preset_name,
             "preset_data": self.base,

@@ -107,12 +107,7 @@ def file_name(spec: BankSpec, index: int, values: dict) -> str:
 
 
 def _field_names(spec: BankSpec) -> list[str]:
-    out = []
-    for k in spec.keys:
-        out.append(k.replace(".", "_"))
-        if "." in k:
-            out.append(k)
-    return out
+    return [name for k in spec.keys for name in dict.fromkeys((k.replace(".", "_"), k))]
 
 
 def check_template(spec: BankSpec) -> None:

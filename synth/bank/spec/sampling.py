@@ -111,12 +111,14 @@ class _ListDraws:
                 return c
 
 
+def _ranges(spec: BankSpec) -> list[RangeAxis]:
+    return [a for a in spec.axes if isinstance(a, RangeAxis)]
+
+
 def _unit_point(spec: BankSpec, values: dict) -> np.ndarray:
     """A row's range values as a point of the unit cube (log ranges in log)."""
     out = []
-    for axis in spec.axes:
-        if not isinstance(axis, RangeAxis):
-            continue
+    for axis in _ranges(spec):
         v = np.atleast_1d(np.asarray(values[axis.key], dtype=float))
         lo = np.atleast_1d(np.asarray(axis.low, dtype=float))
         hi = np.atleast_1d(np.asarray(axis.high, dtype=float))
@@ -139,9 +141,8 @@ def _spaced_variations(spec: BankSpec):
         for _ in range(MIN_DISTANCE_ATTEMPTS):
             values = _draw(spec, i, lists.values(i), rng)
             p = _unit_point(spec, values)
-            if not points or np.min(np.linalg.norm(np.array(points) - p, axis=1)) >= (
-                spec.min_distance
-            ):
+            nearest = np.min(np.linalg.norm(np.array(points) - p, axis=1)) if points else np.inf
+            if nearest >= spec.min_distance:
                 break
         else:
             raise spec_error(
@@ -171,13 +172,8 @@ def _draw(spec: BankSpec, index: int, lists: dict, rng=None) -> dict:
     return values
 
 
-def _combinations(spec: BankSpec) -> int:
-    """How many distinct combinations the list axes have (1 without lists)."""
-    return math.prod(len(a.values) for a in spec.axes if isinstance(a, ListAxis))
-
-
 def row_count(spec: BankSpec) -> int:
-    return spec.count if spec.count is not None else _combinations(spec)
+    return spec.count if spec.count is not None else _ListDraws(spec).total
 
 
 class RepeatedRowsWarning(UserWarning):
@@ -187,10 +183,8 @@ class RepeatedRowsWarning(UserWarning):
 def warn_repeated_rows(spec: BankSpec) -> None:
     """Warn when ``count`` passes the distinct rows of a spec without a range axis: rows
     repeat (a randomised block design, valid for stimuli, not for a game's container)."""
-    distinct = _combinations(spec)
-    if spec.count is None or spec.count <= distinct:
-        return
-    if any(isinstance(a, RangeAxis) for a in spec.axes):
+    distinct = _ListDraws(spec).total
+    if spec.count is None or spec.count <= distinct or _ranges(spec):
         return
     lists = " x ".join(f"{a.key} ({len(a.values)})" for a in spec.axes) or "no axis"
     warnings.warn(
