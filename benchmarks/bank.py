@@ -10,7 +10,7 @@ rendered
   wall time of the whole call, of which the workers' start-up (spawn, import, one warm
   render), and the rate once they are warm, on which the two-core target is judged; each
   after a dry run of it into the same folder, whose estimate of the time
-  (:class:`synth.bank.run.Estimate`) is printed against the run's;
+  (:class:`synth.bank.runner.Estimate`) is printed against the run's;
 * on a Dask ``LocalCluster`` of two worker processes (started before the clock), whose
   overhead per sound is its time per sound less that of ``jobs=2``, both once warm;
 

@@ -371,7 +371,7 @@ def test_dry_run_samples_more_rows_as_the_bank_grows():
     # rows differ in cost (ten times between impact points): the dry run times at least
     # the square root of the rows, spread from the first to the last, a whole number per
     # worker, so that the sampled mean's relative error falls with the bank's size
-    from synth.bank.run import _estimate_sample
+    from synth.bank.runner import _estimate_sample
 
     items = list(range(200))
     for jobs, want in ((1, 15), (2, 16)):
@@ -389,7 +389,7 @@ def test_dry_run_estimate_runs_rows_as_the_run_does(tmp_path, cache_dir, monkeyp
     # folder removed after; and its seconds are the sum of its parts.
     import importlib
 
-    run_module = importlib.import_module("synth.bank.run")
+    run_module = importlib.import_module("synth.bank.runner")
     started, appended = [], []
     real_executor, real_append = run_module._executor, mf.Manifest.append
 
@@ -1991,3 +1991,15 @@ def test_the_next_run_cleans_what_a_killed_run_left(tmp_path, cache_dir):
     result = bank.run(spec, out, jobs=1)
     assert result.ok and (result.done, result.skipped) == (0, 2)
     assert not (out / mf.LOCK).exists() and not any(p.exists() for p in left)
+
+
+def test_bank_run_stays_the_function_whatever_was_imported_first():
+    # invariant: `synth.bank.run` is the public function in every import order; a submodule
+    # of the same name would replace it on the package once anything imported it (the gain
+    # pass imports the runner's helpers).
+    code = (
+        "import synth.bank.gain, synth.bank.spec.loading, synth.bank.runner\n"
+        "from synth import bank\n"
+        "assert callable(bank.run) and bank.run.__module__ == 'synth.bank.runner', bank.run\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parent)

@@ -7,7 +7,7 @@ from synth.lazy import lazy_names
 
 #: Where each public name lives, imported on first use (PEP 562): the command line reads the
 #: options' declaration (:mod:`synth.bank.options`) without loading the banks.
-_LAZY = dict.fromkeys(("BankResult", "BankRunError", "run"), "run") | dict.fromkeys(
+_LAZY = dict.fromkeys(("BankResult", "BankRunError", "run"), "runner") | dict.fromkeys(
     ("BankSpec", "BankSpecError", "PlanItem", "load", "plan"), "spec"
 )
 

@@ -22,7 +22,7 @@ from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.executors import BankRunError
 from synth.bank.row import encode, integrated_loudness
-from synth.bank.run import engine_problem
+from synth.bank.runner import engine_problem
 from synth.bank.spec import BankSpecError
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
@@ -156,7 +156,7 @@ def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> tuple[by
 def _compared(record: dict) -> dict:
     """The part of a ``gain.json`` record that makes the scaled sounds: the source, target,
     level, gain, the spec's :func:`~synth.bank.spec.compared_form` and the source's engine
-    (the pass' engine is checked on its own, :func:`~synth.bank.run.engine_problem`)."""
+    (the pass' engine is checked on its own, :func:`~synth.bank.runner.engine_problem`)."""
     out = dict(record)
     out.pop(bank_spec.ENGINE, None)
     if isinstance(out.get("spec"), dict):

@@ -1,4 +1,4 @@
-"""The options of :func:`synth.bank.run.run`, declared once: its docstring and the flags of
+"""The options of :func:`synth.bank.run`, declared once: its docstring and the flags of
 ``synth bank`` are made from this table. Plain data, so the command line reads it without
 loading the banks."""
 

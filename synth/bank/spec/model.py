@@ -25,7 +25,7 @@ TOP_LEVEL = tuple(
 NOT_AUDIO = ("preset", "name", "labels", "tags")
 
 #: Key of a stored spec naming the engine that rendered the bank (``synth.__version__``),
-#: compared on its own (:func:`synth.bank.run.engine_problem`).
+#: compared on its own (:func:`synth.bank.runner.engine_problem`).
 ENGINE = "engine"
 
 #: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
