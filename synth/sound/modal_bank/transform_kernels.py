@@ -1,11 +1,5 @@
-"""The numba quadrature of one contact's pulse transforms (see :mod:`synth.sound.modal_bank`).
-
-:func:`impact_transform` takes the transforms ``Int_0^tau F(u) e^(-p_k u) du`` of a pulse
-on its uniform grid by the trapezoid rule with one Richardson step, and the exact partial
-transforms at the audio samples inside the contact with Euler-Maclaurin end corrections;
-:func:`long_impact_transform` gives the same in the frame of the current time, for
-contacts so long that ``e^(-p u)`` leaves float64. Every loop over the modes vectorises.
-"""
+"""The numba quadrature of one contact's pulse transforms ``Int_0^tau F(u) e^(-p_k u) du``
+(:mod:`synth.sound.modal_bank`). Every loop over the modes vectorises."""
 
 from __future__ import annotations
 
