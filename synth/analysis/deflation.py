@@ -344,11 +344,8 @@ class Residual:
     def background_frames(self, d: np.ndarray, lo: int) -> np.ndarray:
         """The frame energies (frame 0 at ``lo``) a frame past the first tick's template rises
         from, after a silent lead-in (:meth:`_silent_lead_in`): ``d``, but over the template's
-        span those of ``r``. The template's end (where step 3 found its next candidate) is where
-        the first tick's ringing stops being taken out: beyond it a frame rises from that
-        ringing, whose level over the span is ``r``'s, not the residual's (zero there by
-        construction) nor the silence's before the first onset (the median's window starts at
-        the onset)."""
+        span those of ``r``: beyond the template's end a frame rises from the first tick's
+        ringing, whose level there is ``r``'s, not the residual's (zero by construction)."""
         a = max(lo, self.origin)
         b = min(lo + (d.size - 1) * self.hop + self.w, self.template_end)
         if b <= a:

@@ -80,14 +80,8 @@ def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
         The options; a keyword below changes one of them.
     OPTIONS_DOC
 
-    Raises
-    ------
-    ParameterError
-        Bad input, checked before any work; the message names the field, value and what is allowed.
-    TypeError
-        A keyword that is not an option (the message names the nearest).
-    AnalysisError
-        A silent recording, no detectable tick, or clipping with ``on_clipping="raise"``."""
+    Bad input raises ParameterError before any work, an unknown keyword TypeError, a silent
+    recording, no tick or clipping with ``on_clipping="raise"`` AnalysisError."""
     o = AnalysisOptions.of(options, **overrides)
     chans = audio_array(audio)
     settings = make_settings(chans.shape[1], samplerate, o)
@@ -347,27 +341,18 @@ def _ticks(
 
 
 def analyze_file(path, *, options=None, **overrides) -> Analysis:
-    """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it; a file longer
-    than :data:`~synth.analysis.blocks.WHOLE` is read block by block, never whole. The options
-    are checked before any sample is read. A WAV file holding fewer frames than its header
-    declares is analysed as far as it goes, with a warning (``TruncatedAudioWarning``).
+    """Read a sound file (any format soundfile reads) and :func:`analyze` it, block by block past
+    :data:`~synth.analysis.blocks.WHOLE`; a truncated WAV file is analysed as far as it goes
+    (``TruncatedAudioWarning``).
 
     Parameters
     ----------
     path : str or path-like
-        The file (WAV, FLAC, OGG, AIFF, ...).
     options : AnalysisOptions, optional
         The options; a keyword below changes one of them.
     OPTIONS_DOC
 
-    Raises
-    ------
-    ParameterError
-        A missing file or bad options.
-    TypeError
-        A keyword that is not an option (the message names the nearest).
-    AnalysisError
-        An unreadable file and the cases of :func:`analyze`."""
+    An unreadable file raises AnalysisError, the rest as :func:`analyze`."""
     o = AnalysisOptions.of(options, **overrides)
     check_recording_path(path)
     frames = file_frames(path)  # None: a format read whole

@@ -45,25 +45,9 @@ def plot_analysis(analysis, audio, samplerate, path):
     (:func:`synth.store.atomic.write_atomically`); returns the matplotlib Figure. Four panels:
     the analysed signal with the onsets; bounce time (ms) and restitution per bounce; tick energy
     (log) against bounce number with ``E_1 ebar^(2 (n - 1))`` (``ebar`` the mean restitution);
-    centroid (Hz) and decay time (ms) per bounce.
-
-    Parameters
-    ----------
-    analysis : Analysis
-        From :func:`~synth.analysis.analyze` of the same audio.
-    audio : array of float, (frames,) or (frames, channels)
-        The recording analysed, with all its channels.
-    samplerate : float > 0
-        Its sample rate, Hz; must be the analysis' rate.
-    path : str or path-like
-        The image file to write (:func:`check_plot_path`).
-
-    Raises
-    ------
-    ParameterError
-        Bad input.
-    SynthError
-        matplotlib is not installed (``pip install matplotlib``)."""
+    centroid (Hz) and decay time (ms) per bounce. ``audio`` (frames[, channels]) is the
+    recording ``analysis`` was made of, at its ``samplerate`` (Hz). SynthError without
+    matplotlib."""
     an = checked_analysis("analysis", analysis)
     x = _analysed_signal(an, audio, samplerate)
     fmt = check_plot_path(path)

@@ -25,41 +25,19 @@ RESTITUTION_FLAGS = (GROWN_BOUNCE, AFTER_GROWN, MISSED_BOUNCE)
 
 @dataclass(frozen=True)
 class Tick:
-    """One detected tick (SI units).
+    """One detected tick (SI units; ``None`` where undefined or withheld by a flag).
 
-    Attributes
-    ----------
-    index : int
-        1 for the first tick.
-    time : float
-        Onset, s from the start of the recording.
-    bounce_time : float or None
-        ``t_n``, time since the previous onset, s (flight plus previous contact).
-    restitution : float or None
-        ``e_n = t_n / t_(n-1)`` (the thesis, docs/physics.md, References, section 3.1); above
-        the physical restitution by about contact time over bounce time (docs/analysis.md).
-        ``None`` for the first two ticks and where a flag withholds it.
-    speed : float or None
-        Impact speed ``v_n = g t_n / 2``, m/s (``g tau / 2`` over the flight's alone); ``None``
-        for the first tick and where ``"restitution>=1"`` withholds it.
-    energy : float
-        Sum of squares of the tick's own signal over its window over the rate, units^2 s.
-    peak : float
-        Largest magnitude of the tick's own signal, signal units.
-    centroid, spread : float
-        Power-weighted mean and standard deviation of frequency, Hz.
-    decay_time : float or None
-        Time for the envelope to fall to 1/e of its peak, s; ``None`` when it cannot be fitted.
-    window : float
-        Measurement window, s: the option ``window``, shorter only at the recording's end.
-    strength : float
-        Margin of the whitened energy over its threshold, dB (step 7's description-length
-        ticks: the fall of the description length, dB of residual energy per sample).
-    flags : tuple of str
-        Why measurements are impossible or doubtful (:mod:`~synth.analysis.validity`): a bounce
-        that grew (``"restitution>=1"``), one measured against it (``"after-restitution>=1"``)
-        or spanning a missed bounce (``"missed-bounce"``) withholds the restitution;
-        ``"no-decay"``: the tick's sound does not ring down."""
+    ``index`` (1 first); ``time`` onset, s from the recording's start; ``bounce_time`` ``t_n``,
+    s since the previous onset; ``restitution`` ``e_n = t_n / t_(n-1)`` (the thesis,
+    docs/physics.md, References, section 3.1), above the physical one by about contact time over
+    bounce time (docs/analysis.md); ``speed`` ``v_n = g t_n / 2``, m/s; ``energy`` sum of squares
+    of the tick's own signal over its ``window`` (s) over the rate, units^2 s; ``peak``, signal
+    units; ``centroid``, ``spread`` of the power spectrum, Hz; ``decay_time`` to 1/e of the
+    envelope's peak, s; ``strength`` margin of the whitened energy over its threshold, dB (step
+    7: the fall of the description length, dB per sample); ``flags``
+    (:mod:`~synth.analysis.validity`): ``"restitution>=1"``, ``"after-restitution>=1"`` and
+    ``"missed-bounce"`` withhold the restitution, ``"no-decay"`` marks a sound that does not
+    ring down."""
 
     index: int
     time: float
@@ -78,27 +56,10 @@ class Tick:
 
 @dataclass(frozen=True)
 class Analysis:
-    """The ticks found in one recording.
-
-    Attributes
-    ----------
-    ticks : list of Tick
-        In time order.
-    samplerate, duration : float
-        Sample rate, Hz, and length of the recording, s.
-    noise_floor : float
-        RMS of the noise estimate, signal units.
-    gravity : float
-        Gravity used for the speeds, m/s^2.
-    channel : int or None
-        The channel analysed; ``None`` for the mix (mean).
-    clipped : bool
-        True when the recording looks clipped.
-    warnings : tuple of str
-        What the measurements should be read with (clipping, impossible restitutions, several
-        drops, not a bouncing sound, a truncated file).
-    series : list of Series
-        The bounce series (drops), in time order (:mod:`~synth.analysis.validity`)."""
+    """The ticks found in one recording, in time order: ``samplerate`` (Hz), ``duration`` (s),
+    ``noise_floor`` (RMS, signal units), ``gravity`` of the speeds (m/s^2), ``channel`` (None:
+    the mix), ``clipped``, ``warnings`` (what to read the figures with) and ``series`` (the
+    drops, :mod:`~synth.analysis.validity`)."""
 
     ticks: list[Tick]
     samplerate: float

@@ -1,13 +1,8 @@
-"""What a render will cost, known before the work starts, and the budget it must fit
-(docs/cli.md, "The cost of a render, and its budget").
+"""What a render will cost, estimated before any work, and the budget it must fit (docs/cli.md,
+"The cost of a render, and its budget"), so that work beyond it is refused up front.
 
-Every size is estimated from the scene and options before any mode, gain or bounce is
-computed, so work beyond the :class:`Budget` is refused before it starts, with a message
-naming what is too big and what to change: the modes (modal density, Cremer, Heckl &
-Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118; the solver's flops by LAPACK's
-counts, Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3), the longest contact, the
-audio, the radiation rule's terms (:mod:`synth.sound.radiation.rules`) and memory.
-:mod:`~.records` holds the records, the budget and the rates, :mod:`~.estimates` the estimates.
+Sources: modal density, Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118;
+the solver's flops, Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3.
 """
 
 from __future__ import annotations

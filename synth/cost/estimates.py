@@ -1,11 +1,6 @@
-"""The whole estimates: a render's (:func:`estimate`, :func:`estimate_render` from its
-options) and a live body's (:func:`body_cost`, checked by :func:`check_body`); the plate's
-modes below a frequency, counted from the lattice of its wavenumbers before any is solved,
-and the cold mode solver's size and flops; the radiation stage's work for a microphone (the
-rule the engine takes, the points and terms of its rules, the bytes of the sums); the
-longest contact of a bounce series and the audio's length, from the first impact solved
-alone on the infinite plate and Hertz' law for the later ones.
-"""
+"""A render's and a live body's cost estimates, before any mode is solved: modes counted on
+the wavenumber lattice, the radiation rules' work, and the longest contact and the audio's
+length from the first impact alone and Hertz' law for the later ones."""
 
 from __future__ import annotations
 
@@ -236,11 +231,9 @@ def estimate_render(scene, options: dict, budget: Budget | None = None) -> CostE
 def estimate(
     scene, options: RenderOptions | None = None, /, *, budget: Budget | None = None, **overrides
 ) -> CostEstimate:
-    """The :class:`CostEstimate` of rendering ``scene`` with the render ``options`` (a
-    :class:`~synth.sound.options.RenderOptions`, and ``overrides`` of its fields by name, as
-    :func:`synth.render` takes them; ``samplerate`` in Hz is required); ``budget`` (default:
-    the environment's) sets the radiation rules that fit. Nothing is solved but the first
-    contact."""
+    """The :class:`CostEstimate` of rendering ``scene`` with the options of :func:`synth.render`
+    (``samplerate`` in Hz required); ``budget`` sets the radiation rules that fit. Only the
+    first contact is solved."""
     o = RenderOptions.of(options, **overrides)
     budget = Budget.from_environment() if budget is None else budget
     from synth.sound.modal_bank.pulse import grid_size
@@ -319,11 +312,8 @@ def body_cost(
 def check_body(
     plate, listener, max_frequency: float, voices: int = 1, budget: Budget | None = None
 ) -> int | None:
-    """Check a live body before any work (:func:`body_cost` against ``budget``, default
-    the environment's): ``ParameterError`` naming what is too big and what to change, as
-    a render's. Returns the ``radiation_max_points`` to pass to
-    :func:`synth.sound.render.modal_model` (where the budget stops the sums' refinement;
-    None: not stopped)."""
+    """Raise ParameterError where :func:`body_cost` is beyond ``budget``; returns the
+    ``radiation_max_points`` for :func:`synth.sound.render.modal_model` (None: no cut)."""
     budget = Budget.from_environment() if budget is None else budget
     cost = body_cost(plate, listener, max_frequency, voices, budget)
     cost.check(budget)

@@ -1,8 +1,5 @@
-"""The estimates' records: the :class:`Budget` they must fit, the memory a render holds
-(:class:`MemoryParts`), the radiation stage's work (:class:`RadiationWork`), a render's and a
-live body's whole estimate (:class:`CostEstimate`, :class:`BodyCost`), what of them is beyond
-a budget with what to change, and the shipped :class:`Rates` that turn them into seconds.
-"""
+"""The cost estimates' records, the :class:`Budget` they must fit and the measured
+:class:`Rates` that turn them into seconds."""
 
 from __future__ import annotations
 
@@ -15,8 +12,7 @@ from synth import checks
 from synth.errors import ParameterError
 from synth.sound.radiation.rules import RATES
 
-#: Default budget: modes of the plate below the highest rendered frequency (each costs
-#: its shape, its radiation gain and its share of every impact's transform).
+#: Default budget: plate modes below the highest rendered frequency.
 DEFAULT_MAX_MODES = 100_000
 #: Default budget: points of the longest force pulse's grid (``4 omega_max tau / pi``:
 #: about 10 s of contact at 24 kHz).
@@ -28,10 +24,8 @@ DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
 #: core, so minutes; about four times the costliest shipped preset's solve).
 DEFAULT_MAX_SOLVER_FLOPS = 10**12
 #: Default budget: rectangle-term equivalents of the radiation stage's sums
-#: (:class:`RadiationWork`: each rule's shape terms and Rayleigh terms, each a multiply-add
-#: or an exponential, weighted to the rectangle rule's time by
-#: :func:`synth.sound.radiation.rules.rule_weights`). Every shipped preset's first four rules
-#: fit at 48 kHz (tests/test_cost.py).
+#: (:func:`synth.sound.radiation.rules.rule_weights`); every shipped preset's first four rules
+#: fit at 48 kHz.
 DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
 #: The environment variables of :meth:`Budget.from_environment`, with their defaults.
 ENVIRONMENT = {
@@ -108,11 +102,8 @@ class Rates:
         )
 
     def seconds(self, cost) -> tuple[float, float, float]:
-        """Estimated wall seconds of the cold mode solve and of the radiation stage of
-        ``cost`` (a :class:`CostEstimate` or :class:`BodyCost`), their work over these
-        rates (the synthesis is not included): the solve, the radiation's first rule and
-        one refinement (the fewest the convergence test takes) and every rule the budget
-        holds (the most)."""
+        """Estimated wall seconds (s) of ``cost``'s cold mode solve and radiation stage: the
+        fewest rules the convergence test takes (two) and every rule the budget holds."""
         r = cost.radiation
         if r.rule == "none":
             return cost.solver_flops / self.solver, 0.0, 0.0
@@ -138,11 +129,8 @@ def time_row(cost, rates: Rates | None) -> tuple[str, str]:
 #: Bytes per audio sample held at once: the synthesis' float64 buffer, the scaled copy
 #: the level makes (:func:`synth.store.audio.normalize`) and the float32 :class:`Render`.
 AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
-#: Complex values per mode that the modal model and the synthesis hold besides the
-#: transform's workspace: the poles, their one-sample step and the response
-#: coefficients (:func:`synth.sound.modal_bank.pulse.bank_coefficients`, each also
-#: as real and imaginary parts), the excitation and output gains, the modes'
-#: frequencies, decay rates and masses, the ring bank's state and masks.
+#: Complex values per mode the modal model and the synthesis hold besides the transform's
+#: workspace (poles, steps, response coefficients, gains, state and masks).
 MODE_VALUES = 20
 #: Dense n x n float64 arrays alive in a Rayleigh-Ritz solve with vectors
 #: (:func:`synth.physics.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
@@ -152,12 +140,9 @@ SOLVER_SQUARES = 5
 #: The same for the check basis, eigenvalues only: the matrix and its copy (the
 #: workspace is ``1 + 2 n``).
 CHECK_SQUARES = 2
-#: Chunks of shape values (points x modes, float64, at most ``CHUNK_BYTES`` each, see
-#: :mod:`synth.sound.radiation.common`) alive at once while a microphone's gains are
-#: summed: the chunk the worker threads add up and the next one being evaluated
-#: (the pipeline of :func:`synth.sound.radiation.rectangle.apply_rule`), and the shape
-#: evaluation's temporaries of the same size (the two factor tables taken at the modes'
-#: indices and their product, :mod:`synth.physics.modes.closed_form`).
+#: Chunks of shape values (at most ``CHUNK_BYTES`` each) alive at once while a microphone's
+#: gains are summed: the one being added, the next being evaluated
+#: (:func:`synth.sound.radiation.rectangle.apply_rule`) and the evaluation's temporaries.
 RADIATION_CHUNKS = 5
 #: Tolerance of the microphone's gains (:func:`synth.sound.radiation.plate_gains`'
 #: default, which a render uses).
@@ -188,14 +173,10 @@ class MemoryParts:
 
 @dataclass(frozen=True)
 class RadiationWork:
-    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.rules`):
-    ``rule`` the engine takes ("rectangle", "polar", "summed", "banded"; "none" for an
-    accelerometer), ``unit`` what its points count, ``first_points`` the first rule's;
-    ``rules`` the rules the refinement may take within the budget, ``points`` their points
-    summed, ``max_points`` the last one's when the budget stops the refinement early (else
-    None); ``rule_points`` and ``rule_work`` each rule's points and work (rectangle-term
-    equivalents), ``fixed_work`` the work outside the refinement; ``shape_terms`` the terms
-    of one shape value per mode; ``evaluations`` ``points`` times the modes."""
+    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.rules`; rule
+    "none" for an accelerometer): the rules the refinement may take within the budget, their
+    points and work in rectangle-term equivalents, and ``max_points`` where the budget stops
+    the refinement (None: it does not)."""
 
     rule: str = "none"
     first_points: int = 0
@@ -265,14 +246,9 @@ class _Checked:
 
 @dataclass(frozen=True)
 class CostEstimate(_Checked):
-    """The sizes of one render's work (see the module docstring for each estimate):
-    ``max_frequency`` (Hz) and the plate ``modes`` below it (:func:`modal_count`);
-    ``impact_speed`` (m/s), ``hertz_contact`` (Hertz' contact time on a rigid plate, or a hollow
-    ball's shell law's, s, :func:`hertz_contact_time`), ``longest_contact`` (s) and ``settles``
-    (the first impact does not separate); ``pulse_points`` of the longest pulse's grid;
-    ``audio_seconds`` and ``audio_samples``; ``memory_bytes`` of the largest arrays held at
-    once (:attr:`MemoryParts.total`); ``max_duration`` of the bounce series, s;
-    ``solver_unknowns`` (0: closed-form modes) and ``solver_flops`` of a cold mode solve."""
+    """The sizes of one render's work (:mod:`synth.cost.estimates`), SI units: frequencies Hz,
+    speeds m/s, times s, memory bytes; ``settles``: the first impact does not separate;
+    ``solver_unknowns`` 0 for closed-form modes."""
 
     max_frequency: float
     modes: int
@@ -397,11 +373,8 @@ class SolverCost:
 
 @dataclass(frozen=True)
 class BodyCost(_Checked):
-    """What preparing a live body costs (:meth:`synth.Engine.add`: its modes, their cold solve, a
-    microphone's gains, its voices' modal states), as :class:`CostEstimate` for what a body has
-    of a render: ``max_frequency`` (Hz), ``modes``, ``solver_unknowns``, ``solver_flops``,
-    ``radiation`` (:class:`RadiationWork`), ``memory`` (:class:`MemoryParts`: ``impacts`` holds
-    the voices' states and per-mode vectors) and ``memory_bytes`` (their total)."""
+    """What preparing a live body costs (:meth:`synth.Engine.add`), with the fields
+    :class:`CostEstimate` has for it (``memory.impacts``: the voices' states)."""
 
     max_frequency: float
     modes: int

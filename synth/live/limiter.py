@@ -1,5 +1,5 @@
-"""The master bus' true-peak limiter: a look-ahead gain that keeps the bus' sample and
-inter-sample peaks at or below a ceiling.
+"""The master bus' true-peak limiter: a look-ahead gain that keeps sample and inter-sample
+peaks at or below a ceiling.
 
 The detector interpolates 4x as ITU-R BS.1770-4 Annex 2's true-peak meter (12 taps per
 phase, Kaiser-windowed sincs); each position's required gain is ``r(q) = min(1, ceiling /

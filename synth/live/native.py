@@ -1,10 +1,9 @@
 """The audio thread without Python: :func:`stream_callback` is a numba ``cfunc`` of
 PortAudio's ``PaStreamCallback`` signature working on the engine's preallocated state
 (:mod:`synth.live.state`) through addresses (``ctl``'s as ``userData``, as python-rtmixer
-does): no GIL, allocation or lock. The Python fallback and :meth:`synth.live.Engine.process`
-call the same code; the rolling block is compiled apart, called through ``ctl[ROLLER]``.
-numba keys this file's cache on the file alone: after changing a kernel it calls, delete
-``synth/live/__pycache__/native.*``.
+does): no GIL, allocation or lock. The rolling block is compiled apart, called through
+``ctl[ROLLER]``. numba keys this file's cache on the file alone: after changing a kernel it
+calls, delete ``synth/live/__pycache__/native.*``.
 """
 
 from __future__ import annotations

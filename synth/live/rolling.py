@@ -1,9 +1,7 @@
-"""A ball rolling on a live body, updated by the game every frame (:meth:`synth.live.Body.roll`,
-:class:`RollingVoice`; docs/live.md, "Rolling"). The game's thread evaluates the mode shapes
-along the straight segment ahead of the ball (:func:`synth.sound.rolling.path_excitation`,
-over :data:`HORIZON` s at the update's speed plus :data:`MARGIN` m); the audio thread
-(:mod:`synth.live.rolling_block`) rolls the ball over each block and drives the modes.
-"""
+"""A ball rolling on a live body, updated by the game every frame (docs/live.md, "Rolling"):
+the game's thread evaluates the mode shapes along the segment ahead (the audio thread may not
+allocate), the audio thread (:mod:`synth.live.rolling_block`) rolls the ball and drives the
+modes."""
 
 from __future__ import annotations
 

@@ -1,18 +1,11 @@
 """The audio thread's share of a rolling voice: its contact integrated and its force driving
 the plate's modes, block by block, inside the compiled callback (docs/live.md, "Rolling").
 
-A body holds ``max_rolls`` slots (:func:`rolling_arrays`); a voice holds the same slot at each
-ear, the first ear's holding its contact (the *contact slot*, reached through ``I_C_*``),
-rolled once a block for every ear. Each block a live slot (1) if its contact has not rolled
-(``I_BLOCK``), takes the game's newest update from a lock-free triple buffer (the game swaps
-its back buffer with the middle one by an atomic :func:`exchange`, flagged ``FRESH``), the
-speed and the mode-shape table ahead, anchored at the centre's path coordinate now, and rolls
-it with the offline integrator (:func:`synth.physics.rolling_kernels.roll`) at most
-:data:`MAX_STEPS_PER_SAMPLE` steps a sample; (2) drives its ear's modes with that force at the
-touching point (as :func:`synth.sound.rolling.drive_modes`), heard through the ear's gains
-(ramped over a block after a move), times the voice's gain and fade, into the body's mix. A
-stopped, leaving or failed voice fades out alike at every ear, then each ear's slot is freed
-and its end posted. A slot is taken only when free at every ear.
+A voice holds the same slot at each ear; the first ear's (the *contact slot*, ``I_C_*``)
+holds its contact, rolled once a block for every ear by the offline integrator
+(:func:`synth.physics.rolling_kernels.roll`, at most :data:`MAX_STEPS_PER_SAMPLE` steps a
+sample: a bound on the callback's work). The game's updates reach the callback through a
+lock-free triple buffer (an atomic :func:`exchange`), so the audio thread never waits.
 """
 
 from __future__ import annotations

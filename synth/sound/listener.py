@@ -1,8 +1,6 @@
-"""How a listener hears a plate's modes: :class:`ModalModel` (the modes, their poles and the
-listener's gains) and :func:`modal_model`, which :func:`synth.render` and the live engine
-(:mod:`synth.live`) build once per plate and listener; an accelerometer hears the plate's
-acceleration at a point (m/s^2), a microphone the Rayleigh radiation of the baffled plate
-(Pa, :mod:`synth.sound.radiation`)."""
+"""How a listener hears a plate's modes (:class:`ModalModel`, built once per plate and
+listener): an accelerometer the acceleration at a point (m/s^2), a microphone the Rayleigh
+radiation of the baffled plate (Pa)."""
 
 from __future__ import annotations
 

@@ -1,11 +1,6 @@
-"""The render options, declared once: :class:`RenderOptions`.
-
-Each option is a field of the frozen dataclass with its type, default, unit, values
-allowed and a one-line doc (:class:`Option`). :func:`synth.render`'s signature and docstring,
-a preset's ``[render]`` table and ``synth render``'s flags (:func:`add_option_flags`) are
-made from them; constructing a ``RenderOptions`` is the one check, a bad value a
-:class:`~synth.errors.ParameterError` naming the option, its value and what is allowed.
-"""
+"""The render options, declared once (:class:`RenderOptions`): :func:`synth.render`'s
+signature and docstring, a preset's ``[render]`` table and ``synth render``'s flags are made
+from its fields, and constructing it is the one check."""
 
 from __future__ import annotations
 

@@ -1,11 +1,6 @@
-"""Render a scene: bounces -> plate modes -> exact modal synthesis -> level.
-
-``render(scene, samplerate=48000)`` returns a :class:`~synth.sound.result.Render`: the
-audio (float32), the impacts with their onsets, and its
-:class:`~synth.sound.result.RenderInfo`. The signal is what the scene's listener picks up
-(:mod:`synth.sound.listener`): plate acceleration (m/s^2) for an Accelerometer, sound
-pressure (Pa) for a Microphone above the baffled plate, scaled by ``normalize``.
-"""
+"""Render a scene: bounces -> plate modes -> exact modal synthesis -> level. The signal is
+plate acceleration (m/s^2) for an Accelerometer, sound pressure (Pa) for a Microphone above the
+baffled plate, scaled by ``normalize``."""
 
 from __future__ import annotations
 
@@ -60,13 +55,8 @@ def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> R
         Precomputed impacts of this scene (default: computed here); not empty, and its
         contacts must be this scene's (see :func:`check_sequence`).
     budget : synth.cost.Budget, optional
-        The most work the render may take on (default: ``Budget.from_environment()``):
-        the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
-        ``max_duration``, is refused before any work with a ``ParameterError`` naming
-        what is too big and what to change.
-
-    A tail cut by ``max_tail`` is reported in ``info.tail_cut`` and ``info.left_at_end``
-    (the bound, relative to the reference amplitude, of what rings on after the end).
+        Default ``Budget.from_environment()``; a :func:`synth.cost.estimate` beyond it is
+        refused before any work (ParameterError).
     """
     o = _checked_options(scene, options, overrides)
     estimate = _checked_work(scene, o, sequence, budget)
@@ -291,12 +281,10 @@ SEQUENCE_RTOL = 1e-4
 
 
 def check_sequence(scene, sequence) -> BounceSequence:
-    """``sequence`` as the impacts of ``scene``: a non-empty :class:`BounceSequence` whose
-    first impact, solved again with the scene's ball, plate, point and contact law at the
-    same speed, gives the same contact time and peak force within ``SEQUENCE_RTOL`` (the
-    times and speeds may come from another scene). With the modal plate in the contact an
-    impact depends on the ringing before it, so there the first impact's contact law is
-    what is checked."""
+    """``sequence`` as the impacts of ``scene``: its first impact, solved again for the scene at
+    the same speed, gives the same contact time and peak force within ``SEQUENCE_RTOL``. With the
+    modal plate in the contact (an impact depends on the ringing before it) the first impact's
+    contact law is checked instead."""
     from synth.physics import contact
 
     if not isinstance(sequence, BounceSequence):

@@ -51,23 +51,11 @@ class PathInfo:
 
 @dataclass(frozen=True)
 class RenderInfo:
-    """The options a render used and what it did.
-
-    ``options``: the options, checked, ``max_frequency`` the highest frequency rendered (Hz);
-    ``listener``: "microphone" or "accelerometer", at ``listener_position`` (m; x, y on the
-    plate, z above it); ``delay``: the sound's travel time from the plate's nearest point
-    (s, 0 for an accelerometer); ``audio_start``: the first sample's time from the release
-    (s); ``n_impacts`` rendered and why the series stopped (``stop_reason``); ``n_modes``
-    rendered (ringing, below ``max_frequency`` and Nyquist), ``n_modes_rendered`` heard in
-    at least one impact's ringing, ``mode_samples`` (modes times samples: the bank's work),
-    ``n_modes_overdamped`` left out; ``tail_cut``: whether ``max_tail`` cut a tail above the
-    floor, ``left_at_end`` the bound of what rings on after the end relative to
-    ``reference_amplitude`` (the bound on the loudest tick's peak, Pa or m/s^2, that
-    ``floor_db`` is relative to); ``path``: a path's :class:`PathInfo` (None for a drop).
-    The wall times ``bank_seconds``, ``contact_seconds`` (the drop's contacts) and
-    ``transform_seconds`` (the pulses' transforms), s, are not functions of the inputs;
-    the last two take no part in equality.
-    """
+    """The options a render used and what it did (SI units: Hz, m from the plate's corner, s
+    from the release). ``left_at_end``: the bound of what rings on after the end, relative to
+    ``reference_amplitude`` (the loudest tick's peak bound, Pa or m/s^2, that ``floor_db`` is
+    relative to). The wall times ``*_seconds`` are not functions of the inputs;
+    ``contact_seconds`` and ``transform_seconds`` take no part in equality."""
 
     options: RenderOptions
     listener: str

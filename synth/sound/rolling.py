@@ -12,9 +12,7 @@ per bending wavelength of the highest mode: relative error at most ``(k_b step)^
 interpolated linearly.
 
 A path (:func:`render_path_audio`): the plate is linear, so its signal is the bounces' pulses
-(:func:`synth.sound.modal_bank.synthesize`) plus the rolling's force (:func:`drive_modes`, on the
-modes that may exceed their share of the floor under the bounces' peak) plus the ringing under
-the force it leaves, held at its last point (until below the floor or ``max_tail``).
+plus the rolling's force plus the ringing the force leaves, held at its last point.
 """
 
 from __future__ import annotations

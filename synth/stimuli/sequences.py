@@ -2,7 +2,6 @@
 stays physical (the thesis, section 5.2): :func:`scaled_sequence` (restitution changed by
 ``1 - e' = k (1 - e)``, each impact still solved at its own speed) and
 :func:`mismatch_sequence` (one scene's impact times and speeds with another's ticks).
-Render either with :func:`synth.sound.render.render` (``sequence=``).
 """
 
 from __future__ import annotations

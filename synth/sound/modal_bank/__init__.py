@@ -8,10 +8,6 @@ transforms use the trapezoid rule with one Richardson step (the pulse vanishes l
 ``u^n``, so the leading error is ``C h^(n+1)``, Navot 1961) and Euler-Maclaurin end
 corrections inside a contact. Omission: each of the ``K`` modes gets the share
 ``floor * reference / K`` and stops when all it could add stays within it.
-
-Modules in a render's order: :mod:`~.pulse` (the coefficients shared per plate and
-listener, one pulse's grid and transforms), :mod:`~.transform_kernels` and
-:mod:`~.bank_kernels` (numba), :mod:`~.synthesis` (:func:`synthesize`).
 """
 
 from synth.sound.modal_bank.bank_kernels import (

@@ -1,12 +1,6 @@
-"""The numba block ringing of the modal bank (see :mod:`synth.sound.modal_bank`).
-
-Each mode's complex state rings by a table of its powers ``r^j = e^(p j / fs)``, ``SUB``
-samples at a time, into tiles of the output; an impact's amplitudes join the state at its
-injection sample; a mode stops once its state and what it has already left out fit its
-share of the omission budget. :func:`ring_bank` renders a whole bounce sequence; the live
-engine takes the same steps (:func:`ring_modes`, :func:`inject_amplitudes`) block by
-block.
-"""
+"""The numba block ringing of the modal bank (:mod:`synth.sound.modal_bank`): each mode rings
+by a table of its powers ``r^j = e^(p j / fs)``, ``SUB`` samples at a time (the inner loop
+vectorises); the live engine takes the same steps block by block."""
 
 from __future__ import annotations
 
@@ -87,9 +81,8 @@ def ring_modes(
     its complex amplitude, ``active`` whether it rings, ``debt`` a bound of what it has left
     out as of sample ``debt_at``, ``thresholds`` its share of the omission budget (``thr2``
     squared); ``table`` the :func:`power_table` of the ``poles`` (rad/s) at ``fs`` Hz. A mode
-    writes ``SUB`` samples from the table (the inner loop vectorises), advances by ``r^SUB``
-    and stops once ``|z| + debt <= threshold``. Returns (mode-samples computed, end of the
-    last sample written)."""
+    stops once ``|z| + debt <= threshold``. Returns (mode-samples computed, end of the last
+    sample written)."""
     K = zr.shape[0]
     work = 0
     last = 0
@@ -144,10 +137,8 @@ def ring_bank(out, fs, poles, amps, inject, thresholds):
     """The modal bank: every mode's ringing after every injection, added into ``out`` (S,),
     at ``fs`` Hz: ``poles`` (K,) rad/s, ``amps`` (I, K) joining the state at the ascending
     samples ``inject`` (I,), ``thresholds`` (K,) each mode's share of the omission budget
-    (what a mode leaves out stays within it at every sample). The output is taken in tiles
-    of ``TILE`` samples, every segment one :func:`ring_modes` (the live engine's step too).
-    Returns (mode-samples computed, end of the last sample written, the modes' ``|z|`` plus
-    debts left at the end)."""
+    (what a mode leaves out stays within it at every sample). Returns (mode-samples computed,
+    end of the last sample written, the modes' ``|z|`` plus debts left at the end)."""
     S = out.shape[0]
     K = poles.shape[0]
     I = inject.shape[0]
@@ -163,7 +154,6 @@ def ring_bank(out, fs, poles, amps, inject, thresholds):
     nxt = 0
     a = 0
     while a < S:
-        # inject the impacts that start at sample a
         while nxt < I and inject[nxt] <= a:
             if inject[nxt] == a:
                 inject_amplitudes(

@@ -1,11 +1,6 @@
-"""One contact's pulse as the modal bank takes it (see :mod:`synth.sound.modal_bank`).
-
-The coefficients shared by every impact on one plate heard by one listener
-(:func:`bank_coefficients`), the pulse's uniform grid (:func:`pulse_layout`), its
-transforms at the poles (:func:`transform_pulse`, compiled, which the live engine's audio
-thread calls too) and the modes' excitation by one impact (:func:`impact_excitation`):
-amplitudes at the first sample after the contact and the exact response inside it.
-"""
+"""One contact's pulse as the modal bank takes it (:mod:`synth.sound.modal_bank`): its grid,
+its transforms at the poles (compiled: the live engine's audio thread calls them too) and the
+modes' excitation."""
 
 from __future__ import annotations
 
@@ -51,10 +46,8 @@ def highest_frequency(poles: np.ndarray) -> float:
 
 
 def response_per_transform(poles, excitation, output) -> np.ndarray:
-    """The listener's response per unit pulse transform of modes with ``poles`` (rad/s),
-    excited with ``excitation`` ``b_k`` (1/kg) and heard with ``output``: ``-i b_k
-    output_k / omega_dk`` (the ringing ``Re[A exp(p t)]`` of a mode struck by a pulse,
-    :mod:`synth.sound.modal_bank`)."""
+    """The listener's response ``-i b_k output_k / omega_dk`` per unit pulse transform of modes
+    with ``poles`` (rad/s) and ``excitation`` ``b_k`` (1/kg)."""
     return -1j * excitation / poles.imag * output
 
 
@@ -116,9 +109,8 @@ def transform_pulse(
     pr, pi, cr, ci, ur, ui, sigma_max, period, h, forces, slopes, d0, offset_forces,
     offset_slopes, weight, tau, order, amps, resp, work,
 ):  # fmt: skip
-    """:func:`impact_transform` (its arguments, its result), or
-    :func:`long_impact_transform` for a :func:`long_contact`; compiled, so that the live
-    engine's audio thread calls it too."""
+    """:func:`impact_transform`, or :func:`long_impact_transform` for a :func:`long_contact`
+    (compiled: the live engine's audio thread calls it too)."""
     if long_contact(sigma_max, tau):
         return long_impact_transform(
             pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,

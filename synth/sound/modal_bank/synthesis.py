@@ -49,9 +49,8 @@ def synthesize(
     amplitude); ``settled_weight`` the weight ``m g`` (N) a settled impact leaves on the
     plate; ``direct`` an accelerometer's ``phi_k(xp) b_k`` of the direct term inside
     contacts; ``max_samples`` the output's length cap; ``pulse_points`` (>= 5) the fewest
-    points of each pulse's grid. Returns the audio (float64) and a dict of figures
-    (``n_modes_rendered``, ``mode_samples``, ``reference``, ``length``, ``bank_seconds``
-    and ``transform_seconds`` in s, ...)."""
+    points of each pulse's grid. Returns the audio (float64) and a dict of figures (times
+    in s)."""
     poles, excitation, output, fs = bank
     fs = float(fs)
     onsets = np.asarray(onsets, dtype=float)

@@ -1,11 +1,5 @@
-"""The numba quadrature of one contact's pulse transforms (see :mod:`synth.sound.modal_bank`).
-
-:func:`impact_transform` takes the transforms ``Int_0^tau F(u) e^(-p_k u) du`` of a pulse
-on its uniform grid by the trapezoid rule with one Richardson step, and the exact partial
-transforms at the audio samples inside the contact with Euler-Maclaurin end corrections;
-:func:`long_impact_transform` gives the same in the frame of the current time, for
-contacts so long that ``e^(-p u)`` leaves float64. Every loop over the modes vectorises.
-"""
+"""The numba quadrature of one contact's pulse transforms ``Int_0^tau F(u) e^(-p_k u) du``
+(:mod:`synth.sound.modal_bank`). Every loop over the modes vectorises."""
 
 from __future__ import annotations
 
@@ -237,14 +231,10 @@ def long_impact_transform(
     weight, tau, order, amps, resp, work,
 ):  # fmt: skip
     """:func:`impact_transform` (same arguments, same result) for contacts so long that the
-    factors ``e^(-p u)`` over the contact leave float64.
-
-    The transforms are carried in the frame of the current time instead: the state
-    ``S(u) = Int_0^u F(v) e^(p (u - v)) dv`` (trapezoid rule, ``S <- S e^(p h) + h/2
-    (F_(j-1) e^(p h) + F_j)``) only ever decays, and a sample at ``d`` inside the
-    contact hears ``Re[c S(d)]``; the end corrections and the Richardson step are those
-    of :func:`impact_transform`, each term multiplied by the same ``e^(p u)``.
-    """
+    factors ``e^(-p u)`` over the contact leave float64. In the frame of the current time the
+    state ``S(u) = Int_0^u F(v) e^(p (u - v)) dv`` (trapezoid rule, ``S <- S e^(p h) + h/2
+    (F_(j-1) e^(p h) + F_j)``) only ever decays; a sample at ``d`` inside the contact hears
+    ``Re[c S(d)]``, the end corrections and Richardson step each multiplied by ``e^(p u)``."""
     K = pr.size
     N = forces.size
     M = offset_forces.size

@@ -4,9 +4,6 @@
 The plate ``[0, a] x [0, b]`` lies in an infinite rigid baffle at ``z = 0``; a mode's normal
 velocity ``phi_k exp(s t)`` gives the pressure ``H_k(s) exp(s t)``, Pa per m/s, with
 ``H_k(s) = (rho s / (2 pi)) Int phi_k exp(-s R / c) / R dA`` for any complex ``s``.
-:func:`plate_gains` computes a :class:`synth.physics.modes.Modes`' gains by the rule
-:mod:`~.rules` chooses (:func:`rayleigh_gains`, :func:`separable_gains`,
-:func:`summed_gains`, or the rectangle rule band by band), cached (:mod:`~.cache`).
 """
 
 from __future__ import annotations
@@ -124,17 +121,15 @@ def plate_gains(modes, listener_position, s, *, full_output=False, cache=True, *
 
 
 def distance(listener_position, reference_point) -> float:
-    """Distance from the microphone ``listener_position`` ((x, y, z), metres, ``z > 0``) to a
-    point ``reference_point`` ((x, y), metres) of the plate's plane, metres: the
-    ``reference_distance`` of :func:`rayleigh_gains`."""
+    """Distance (m) from the microphone ``listener_position`` ((x, y, z), m, ``z > 0``) to
+    ``reference_point`` ((x, y), m) of the plate's plane."""
     xl, yl, zl = check_listener(listener_position)
     xr, yr = checks.point("reference_point", reference_point, 2)
     return math.sqrt((xl - xr) ** 2 + (yl - yr) ** 2 + zl * zl)
 
 
 def delay(listener_position, reference_point, sound_speed=SOUND_SPEED) -> float:
-    """Propagation delay from a point of the plate to the microphone, seconds: the
-    :func:`distance` (metres) over ``sound_speed`` (m/s), the delay to apply to gains
-    computed with ``reference_distance = distance(listener_position, reference_point)``."""
+    """Propagation delay (s) from ``reference_point`` to the microphone at ``sound_speed``
+    (m/s): the delay taken out of gains computed with that ``reference_distance``."""
     c = checks.positive("sound_speed", sound_speed, "m/s")
     return distance(listener_position, reference_point) / c

@@ -36,14 +36,10 @@ _TOL_RANGE = (1e-9, 0.1)
 
 @dataclass(frozen=True)
 class RadiationResult:
-    """Gains of the Rayleigh integral and how they were obtained: ``gains`` (n_modes,) complex,
-    ``H_k(s_k)`` (times ``exp(s_k R0 / c)`` with a reference distance), Pa per (m/s) of modal
-    velocity; ``error``, each gain's estimated absolute error ``|H_fine - H_coarse|``, Pa s/m;
-    ``coherent``, the in-phase bound ``S_k >= |H_k|``, Pa s/m; ``n_points`` of the returned
-    rule; ``refinements`` of the first rule (1 when the first check passed); ``panels`` along x
-    and y; ``success`` of the convergence test for every mode; ``status`` (0 converged, 1
-    stopped after the last refinement, 2 stopped at ``max_points``) and ``message`` saying
-    which; ``rule``, the rule's name (:mod:`synth.sound.radiation.rules`)."""
+    """Gains ``H_k(s_k)`` (n_modes,) of the Rayleigh integral (times ``exp(s_k R0 / c)`` with a
+    reference distance), Pa per (m/s) of modal velocity, with their estimated error
+    ``|H_fine - H_coarse|`` and in-phase bound ``S_k``, Pa s/m, and how the convergence test
+    ended (``status`` 0 converged, 1 out of refinements, 2 at ``max_points``)."""
 
     gains: np.ndarray
     error: np.ndarray

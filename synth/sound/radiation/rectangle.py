@@ -223,9 +223,8 @@ def _product_sums(  # noqa: PLR0913
 
 def apply_product_rule(factor_fn, grid: Grid, listener, r_mid, poles: Poles):
     """As :func:`apply_rule` for shapes given as factor tables (``factor_fn(xs, ys)`` ->
-    :class:`ProductFactors`), formed in the sums kernel a block of points at a time. The
-    grid's rows are split into one fixed share per numba thread, each with its own
-    accumulators, so the result does not depend on the timing."""
+    :class:`ProductFactors`), formed in the sums kernel; one fixed share of rows per thread, so
+    the result does not depend on the timing."""
     xs, wx, ys, wy = grid
     f = factor_fn(xs, ys)
     m = poles.qr.size
@@ -330,12 +329,9 @@ def product_gains(factor_fn, size, listener_position, s, **settings) -> Radiatio
 
 
 def _rule_result(evaluate, size, listener_position, s, settings: dict, local_phase=False):
-    """The :class:`RadiationResult` of the rectangle rule (arguments checked here) whose sums
-    ``evaluate(grid, listener, r_mid, poles, active)`` computes as :func:`apply_rule` does
-    for the modes ``active`` (indices, their :class:`~.common.Poles` ``poles``).
-    ``local_phase``: each panel's orders for its own bound of the acoustic phase's rate
-    (:func:`first_rule`), and each mode refined alone; ``settings`` the keywords of
-    :func:`~.common.check_settings`."""
+    """The :class:`RadiationResult` of the rectangle rule whose sums ``evaluate(grid, listener,
+    r_mid, poles, active)`` computes as :func:`apply_rule` does; ``local_phase`` as for
+    :func:`product_gains`."""
     a, b = check_size(size)
     listener = check_listener(listener_position)
     q_s = check_poles(s)
@@ -390,10 +386,9 @@ def _rule_result(evaluate, size, listener_position, s, settings: dict, local_pha
 
 
 def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
-    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`.
-
-    ``acoustic``: the part ``max|s| / c`` of ``kappa`` (rad/m), or None. If given, each
-    panel's orders are for its own bound of the phase's rate along the axis,
+    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`. With
+    ``acoustic`` (the part ``max|s| / c`` of ``kappa``, rad/m) each panel's orders are for its
+    own bound of the phase's rate along the axis,
     ``kappa - acoustic (1 - slope)``: along x the acoustic phase ``Im(s) R / c`` changes
     at ``|s| / c |dR/dx|``, and ``|dR/dx| = |x - xl| / R <= slope = d / sqrt(d^2 + z^2)``,
     ``d`` the distance from the microphone's projection to the panel's far end (the same

@@ -7,8 +7,7 @@ cost, counted before any mode is solved from their own panel builders for the la
 and acoustic wavenumbers ``kb``, ``qa`` (rad/m). The unit is a *term* (a multiply-add, an
 exponential, a Bessel or shape factor value); the shipped rates (:data:`RATES`, ``synth bench
 cost --record``) turn terms into rectangle-term equivalents, so the choice and the budget's
-cut do not depend on the machine. ``synth bench rules`` prints each rule's cost and choice
-on the presets and the scale benchmark's scenes: every rule is chosen on some of them.
+cut do not depend on the machine (``synth bench rules`` prints each rule's cost and choice).
 """
 
 from __future__ import annotations
@@ -216,8 +215,7 @@ class Estimate:
 
 
 class Rule(abc.ABC):
-    """One rule of the Rayleigh integral: the shapes it takes, its counts (:meth:`counts`)
-    and from them its error bound and cost (:meth:`estimate`), and its :meth:`gains`."""
+    """One rule of the Rayleigh integral: the shapes it takes, its counts and gains."""
 
     name = ""
     shapes: tuple = ()
