@@ -136,9 +136,7 @@ def factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 
 @compiled()
 def gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # noqa: PLR0913  # pragma: no cover
-    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (factors ``fx``,
-    ``fy`` at ``ix[p]``, ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1), the
-    factors first laid out in the modes' order."""
+    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p``."""
     m = trial.size
     gx = np.zeros((fx.shape[0], m))
     hx = np.zeros((fx.shape[0], m))

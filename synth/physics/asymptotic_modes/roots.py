@@ -90,9 +90,8 @@ def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # noqa: PLR0913
 
 @compiled()
 def _root(n, so, h, free, nu):  # pragma: no cover
-    """``s`` of the ``n``-th root for ``s_y = so``: for ``n >= 2`` on ``k = sqrt(s)`` in ``((n - 1)
-    pi / (2h), n pi / (2h)]``; for free ``n = 0, 1`` bracketed by scanning ``s`` down to ``s + 2 so
-    > 0``. NaN if no root is bracketed."""
+    """``s`` of the ``n``-th root for ``s_y = so`` (bracketed on ``k``, or by a scan for free ``n
+    <= 1``); NaN if none is bracketed."""
     odd = n % 2 == 1
     if n >= 2:
         lo = (n - 1) * math.pi / (2.0 * h) * (1.0 + 1e-15)

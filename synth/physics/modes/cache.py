@@ -1,7 +1,6 @@
 """The cache of the free and clamped plates' Ritz solutions, in memory and as ``.npz`` in
-``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by everything that
-sets them (:func:`band_key`). Only the exact band is reused: a wider band's modes differ in
-their last bits, and no result depends on what was solved before."""
+``$SYNTH_CACHE_DIR``. Only the exact band is reused: a wider band's modes differ in their last
+bits, and no result may depend on what was solved before."""
 
 from __future__ import annotations
 
@@ -20,9 +19,7 @@ from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 CACHE = MemoryCache("solves", max_bytes=1 << 30)
 
 
-#: Counters of the cache of the Ritz solutions since start-up (``solves``, ``memory_hits``,
-#: ``disk_hits``, ``disk_writes``, ``entries``), and forgetting what memory holds with the
-#: counters (the disk untouched).
+#: Counters of the Ritz cache since start-up, and forgetting memory with them (not the disk).
 cache_info = CACHE.info
 clear_memory_cache = CACHE.clear
 
