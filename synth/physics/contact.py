@@ -59,12 +59,11 @@ def solve_contact(  # noqa: PLR0913 (the public keyword API)
     method: str = "auto",
 ) -> ImpactResult:
     """One impact from lumped parameters: ``mass`` (kg), ``stiffness`` ``K`` (N/m^n) and
-    ``exponent`` ``n`` in (1, 4] of ``F = K delta^n``, the plate's ``admittance`` ``1/Z``
-    (m/(N s), 0: rigid), ``speed`` (m/s, downward), ``gravity`` (m/s^2), Hunt-Crossley
-    ``dissipation`` (s/m), viscoelastic ``viscous_time`` (s, n = 1.5 only), the surface's
-    ``plate_velocity`` (m/s, upward, constant over the contact); ``rtol`` in [1e-12, 0.1]
-    for restitution and contact time; ``n_points`` >= 64 pulse samples; ``method`` "auto",
-    "DOP853" or "Radau"."""
+    ``exponent`` ``n`` in (1, 4] of ``F = K delta^n``, the plate's ``admittance`` ``1/Z`` (m/(N s),
+    0: rigid), ``speed`` (m/s, downward), ``gravity`` (m/s^2), Hunt-Crossley ``dissipation`` (s/m),
+    viscoelastic ``viscous_time`` (s, n = 1.5 only), the surface's ``plate_velocity`` (m/s, upward,
+    constant over the contact); ``rtol`` in [1e-12, 0.1] for restitution and contact time;
+    ``n_points`` >= 64 pulse samples; ``method`` "auto", "DOP853" or "Radau"."""
     # plain floats inside their ranges (the usual call) skip the checks
     values = dict(
         mass=mass, stiffness=stiffness, exponent=exponent, dissipation=dissipation,
@@ -184,9 +183,8 @@ def solve_impact(  # noqa: PLR0913 (the public keyword API)
 ) -> ImpactResult:
     """The impact of ``ball`` on ``plate`` at ``speed`` (m/s) at ``position`` (m from a corner;
     None: the infinite plate's impedance; near an edge admittance and contact time are solved
-    together by fixed-point iteration), under ``gravity`` (m/s^2) and the ``contact`` law (None:
-    the ball's own); ``rtol``, ``plate_velocity`` (m/s) and ``n_points`` as
-    :func:`solve_contact`'s."""
+    together by fixed-point iteration), under ``gravity`` (m/s^2) and the ``contact`` law (None: the
+    ball's own); ``rtol``, ``plate_velocity`` (m/s) and ``n_points`` as :func:`solve_contact`'s."""
     solver = ContactSolver.for_pair(
         ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
         dissipation=dissipation, viscous_time=viscous_time, exponent=exponent,

@@ -58,10 +58,9 @@ class ContactLaw:
     yield_penetration: float = math.inf
 
 
-#: Pogorelov's constant of the flattened spherical shell with its inverted (mirror-buckled)
-#: cap, ``F = C (E h^(5/2) / (R (1 - nu^2)^(3/4))) delta^(1/2)`` (A. V. Pogorelov, "Bendings
-#: of Surfaces and Stability of Shells", AMS Translations of Mathematical Monographs 72,
-#: 1988), dimensionless.
+#: Pogorelov's constant of the flattened spherical shell with its inverted (mirror-buckled) cap, ``F
+#: = C (E h^(5/2) / (R (1 - nu^2)^(3/4))) delta^(1/2)`` (A. V. Pogorelov, "Bendings of Surfaces and
+#: Stability of Shells", AMS Translations of Mathematical Monographs 72, 1988), dimensionless.
 POGORELOV_CONSTANT = 3.56
 
 
@@ -199,9 +198,8 @@ def _contact_loss_factor(body, name: str, omega: float) -> float:
 
 
 def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
-    """Dissipative time ``A`` (s) with a fitted ``surface`` (fitted with a steel ball): the
-    board's term scaled by the ball's share of the indentation, the ball's own term replacing
-    steel's."""
+    """Dissipative time ``A`` (s) with a fitted ``surface`` (fitted with a steel ball): the board's
+    term scaled by the ball's share of the indentation, the ball's own term replacing steel's."""
     steel = replace(ball, material=get_material("steel"), mass=ball.mass)
     plate_modulus = surface.transverse_ratio * plate.material.effective_modulus
     ball_modulus = ball.material.effective_modulus
@@ -416,9 +414,8 @@ def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -
 
 
 def yield_rebound(ball: Ball, plate: Plate):
-    """A rebound rule: the solver's restitution times Thornton's at the pair's
-    :func:`yield_speed` (losses independent; the pulse stays elastic), for a surface whose law
-    carries no yield."""
+    """A rebound rule: the solver's restitution times Thornton's at the pair's :func:`yield_speed`
+    (losses independent; the pulse stays elastic), for a surface whose law carries no yield."""
     v_yield = yield_speed(ball, plate)
 
     def rebound(result, speed: float) -> float:

@@ -41,9 +41,8 @@ def _energy_message(residual: float) -> str:
 
 
 class DenseOutput(NamedTuple):
-    """The dense output of one contact, the pulse kernels' one argument: step history,
-    integrator, dimensionless ``law``, end ``s_contact`` and scales (``theta`` s, ``f_scale``
-    N)."""
+    """The dense output of one contact, the pulse kernels' one argument: step history, integrator,
+    dimensionless ``law``, end ``s_contact`` and scales (``theta`` s, ``f_scale`` N)."""
 
     hist: np.ndarray
     radau: bool
@@ -58,14 +57,13 @@ class DenseOutput(NamedTuple):
 class ImpactResult:
     """The outcome of one impact (SI): ``restitution`` ``v_out / v_in`` (0 when settled);
     ``contact_time`` (s), the force pulse's length (what a force transducer measures);
-    ``separation_time`` (s), to the penetration's return to 0 (later with a loss,
-    docs/physics.md, "Contact losses"); ``max_penetration`` (m), ``peak_force`` (N),
-    ``impulse`` (N s); Zener's ``inelasticity`` ``beta m / theta``; ``settled``;
-    ``rebound_speed`` (m/s); ``plate_energy`` ``beta Int F^2 dt`` (J); ``time``, ``force`` (s,
-    N): the pulse to separation; ``energy_residual``, relative to the energy exchanged;
-    ``status`` 0 separated, 1 settled, negative a failure (-3: the balance off by more than
-    ``ENERGY_RESIDUAL_LIMIT``), with ``message``; ``n_steps``; ``method``, ``"DOP853"``,
-    ``"Radau"`` or ``"DOPRI5"`` (shell law)."""
+    ``separation_time`` (s), to the penetration's return to 0 (later with a loss, docs/physics.md,
+    "Contact losses"); ``max_penetration`` (m), ``peak_force`` (N), ``impulse`` (N s); Zener's
+    ``inelasticity`` ``beta m / theta``; ``settled``; ``rebound_speed`` (m/s); ``plate_energy``
+    ``beta Int F^2 dt`` (J); ``time``, ``force`` (s, N): the pulse to separation;
+    ``energy_residual``, relative to the energy exchanged; ``status`` 0 separated, 1 settled,
+    negative a failure (-3: the balance off by more than ``ENERGY_RESIDUAL_LIMIT``), with
+    ``message``; ``n_steps``; ``method``, ``"DOP853"``, ``"Radau"`` or ``"DOPRI5"`` (shell law)."""
 
     restitution: float
     contact_time: float

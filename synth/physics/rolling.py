@@ -37,10 +37,9 @@ _MESSAGES = {
 
 @dataclass(frozen=True)
 class EnergyBalance:
-    """Mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` at start and end (J)
-    and where the difference went (J): contact loss, plate, the drive's work and its gross.
-    ``residual``: the balance's error over the largest of those terms and ``m g
-    delta_static``."""
+    """Mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` at start and end (J) and
+    where the difference went (J): contact loss, plate, the drive's work and its gross.
+    ``residual``: the balance's error over the largest of those terms and ``m g delta_static``."""
 
     initial: float
     final: float
@@ -282,8 +281,7 @@ class Roller:
 
     def integrator_start(self, speed: float, start: float, state: RollingState | None):
         """State vector and first step (s) from ``state`` or at ``start`` (m), ``speed`` (m/s):
-        pressed with ``F0 = m (g + v^2 e''(s0))`` in steady penetration, touching if ``F0 <=
-        0``."""
+        pressed with ``F0 = m (g + v^2 e''(s0))`` in steady penetration, touching if ``F0 <= 0``."""
         m, g, beta = self.mass, self.gravity, self.admittance
         first = min(0.1 * math.sqrt(self.static_penetration / g), 1.0 / self.samplerate)
         if state is not None:
@@ -421,8 +419,7 @@ def loss_of_contact_speed(
 ) -> LossOfContactSpeed:
     """The lowest speed (m/s) at which the ball rolling from ``start`` to ``stop`` (m) leaves the
     surface (the thesis, section 6.2), by bisection between ``low`` and ``high`` to the relative
-    ``tolerance`` in (0, 0.1]. A random surface may change more than once; the bracket holds
-    one."""
+    ``tolerance`` in (0, 0.1]. A random surface may change more than once; the bracket holds one."""
     check_type("roller", roller, Roller)
     v_lo = checks.positive("low", low, "m/s")
     v_hi = checks.positive("high", high, "m/s")

@@ -209,11 +209,10 @@ def _store(y, z, vy, u, imp, loss, plate, drive, gross, s):  # pragma: no cover 
 def roll(
     y, h, env, dx, speeds, c, max_steps, force_out, min_penetration, path_out
 ):  # pragma: no cover - compiled
-    """Integrate from ``y`` (in place) with first step ``h`` (s) over periods of ``1 /
-    samplerate`` s at ``speeds`` (m/s), writing each period's mean force (N), least
-    penetration (m) and start coordinate (m). Each period starts at its own time 0, so a
-    rolling cut at sample boundaries gives the bits of one call. Returns ``(status, steps,
-    rejected, flights, h)``."""
+    """Integrate from ``y`` (in place) with first step ``h`` (s) over periods of ``1 / samplerate``
+    s at ``speeds`` (m/s), writing each period's mean force (N), least penetration (m) and start
+    coordinate (m). Each period starts at its own time 0, so a rolling cut at sample boundaries
+    gives the bits of one call. Returns ``(status, steps, rejected, flights, h)``."""
     g, samplerate, rtol, delta_ref, h_max = c.g, c.samplerate, c.rtol, c.delta_ref, c.h_max
     n_samples = force_out.shape[0]
     period = 1.0 / samplerate

@@ -97,13 +97,12 @@ MAX_GAUGE_PRESSURE = 1e6
 
 @dataclass(frozen=True)
 class HollowBall(Ball):
-    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball),
-    usable wherever a :class:`Ball` is; its contact is the thin-shell law (docs/physics.md,
-    "Hollow balls"). Keyword fields: wall ``thickness`` in (0, R_s / 2] m; gauge ``pressure``
-    in [0, 1e6] Pa; ``cover_thickness`` in [0, radius / 2) m (a tennis ball's felt: mass and
-    size, no force), ``R_s = radius - cover_thickness``; ``cover_mass`` in [0, 1000] kg. The
-    mass is derived: shell, air at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE`
-    (ideal gas), cover."""
+    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball), usable
+    wherever a :class:`Ball` is; its contact is the thin-shell law (docs/physics.md, "Hollow
+    balls"). Keyword fields: wall ``thickness`` in (0, R_s / 2] m; gauge ``pressure`` in [0, 1e6]
+    Pa; ``cover_thickness`` in [0, radius / 2) m (a tennis ball's felt: mass and size, no force),
+    ``R_s = radius - cover_thickness``; ``cover_mass`` in [0, 1000] kg. The mass is derived: shell,
+    air at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas), cover."""
 
     _: KW_ONLY
     thickness: float | None = None

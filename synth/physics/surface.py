@@ -27,8 +27,7 @@ PADDING_CORRELATION_LENGTHS = 16.0
 NEWTON_ITERATIONS = 6
 #: Samples per run whose highest point bounds the runs :func:`_best_samples` may skip.
 DILATION_BLOCK = 8
-#: Largest RMS height and correlation length, m (the largest plate; ``sigma^2`` far from
-#: overflow).
+#: Largest RMS height and correlation length, m (the largest plate; ``sigma^2`` far from overflow).
 MAX_ROUGHNESS_SCALE = 100.0
 
 
@@ -59,8 +58,7 @@ def samples(name: str, value, least: int, most: int, unit: str, nonnegative=Fals
 
 @dataclass(frozen=True, eq=False)
 class Profile:
-    """Heights (m, read-only) every ``spacing`` m along a straight path, with a
-    ``description``."""
+    """Heights (m, read-only) every ``spacing`` m along a straight path, with a ``description``."""
 
     heights: np.ndarray
     spacing: float
@@ -109,9 +107,8 @@ class RoughnessSpectrum:
         return self.rms_height**2 * norm * (1.0 + kx * kx) ** -(H + 0.5)
 
 
-#: Hurst exponent of the measured surfaces: ``H = 3 - D_f``, the fractal dimension ``D_f =
-#: 2.15 +- 0.15`` of most natural and engineering surfaces (Persson, Tribol. Lett. 54, 99
-#: (2014)).
+#: Hurst exponent of the measured surfaces: ``H = 3 - D_f``, the fractal dimension ``D_f = 2.15 +-
+#: 0.15`` of most natural and engineering surfaces (Persson, Tribol. Lett. 54, 99 (2014)).
 SELF_AFFINE_HURST = 0.85
 
 
@@ -240,10 +237,9 @@ def sinusoidal_profile(
 
 @dataclass(frozen=True, eq=False)
 class ContactEnvelope:
-    """What a sphere of ``radius`` (m) touches with its centre above ``i spacing`` (m): its
-    lowest point's ``heights`` (m), the touching point's ``contact_offsets`` (m) and the
-    not-a-knot cubic spline's ``coefficients`` (N - 1, 4) (C2: the centripetal acceleration
-    is resolved)."""
+    """What a sphere of ``radius`` (m) touches with its centre above ``i spacing`` (m): its lowest
+    point's ``heights`` (m), the touching point's ``contact_offsets`` (m) and the not-a-knot cubic
+    spline's ``coefficients`` (N - 1, 4) (C2: the centripetal acceleration is resolved)."""
 
     heights: np.ndarray
     contact_offsets: np.ndarray

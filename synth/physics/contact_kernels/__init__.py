@@ -91,9 +91,8 @@ RADAU = 2
 #: ``A`` (s), yield penetration ``delta_y`` (m; None: compiled without yield), surface
 #: velocity ``v_free`` (m/s, upward).
 Lumped = namedtuple("Lumped", ("m", "K", "n", "beta", "g", "mu", "A", "delta_y", "v_free"))
-#: Bounce rules: lowest kinetic energy relative to the first's, end ``t_max`` (s), most
-#: impacts; hand-over at a contact time ``tau_edge`` (s) or an energy residual above
-#: ``residual_limit``.
+#: Bounce rules: lowest kinetic energy relative to the first's, end ``t_max`` (s), most impacts;
+#: hand-over at a contact time ``tau_edge`` (s) or an energy residual above ``residual_limit``.
 Rules = namedtuple("Rules", ("energy_floor", "t_max", "max_impacts", "tau_edge", "residual_limit"))
 
 

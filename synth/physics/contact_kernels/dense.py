@@ -214,8 +214,7 @@ def golden_max(D, nst, lo, hi, which):
 DOP853_STEPS = np.bool_(False)
 RADAU_STEPS = np.bool_(True)
 
-#: Event functions of :func:`event`. numpy integers: numba compiles a literal int once per
-#: value.
+#: Event functions of :func:`event`. numpy integers: numba compiles a literal int once per value.
 END_OF_CONTACT = np.int64(0)
 PEAK_PENETRATION = np.int64(1)
 SETTLING = np.int64(2)
@@ -224,9 +223,8 @@ FORCE_END = np.int64(3)
 
 @compiled()
 def event(which, x, w, P, thr, xm):
-    """Event functions: 0, x (end of contact); 1, ``w - lam f`` (peak); 2, ``W - thr``
-    (settling); 3, :func:`force_numerator` (end of the force pulse). ``xm``: the largest
-    penetration so far."""
+    """Event functions: 0, x (end of contact); 1, ``w - lam f`` (peak); 2, ``W - thr`` (settling);
+    3, :func:`force_numerator` (end of the force pulse). ``xm``: the largest penetration so far."""
     if which == 0:
         return x
     if which == 1:
@@ -292,8 +290,7 @@ def event_root(D, k, which, thr):
 
 @compiled()
 def sample_pulse(D, s_contact, times, forces):
-    """Pulse f at ``len(times)`` uniform times over [0, s_contact] into ``times``,
-    ``forces``."""
+    """Pulse f at ``len(times)`` uniform times over [0, s_contact] into ``times``, ``forces``."""
     hist = D.hist
     nh = hist.shape[0]
     n_points = times.shape[0]

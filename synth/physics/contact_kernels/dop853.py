@@ -301,8 +301,7 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                     h = sig * 1.0001
                     landing = True
             if not landing and sig < np.inf:
-                # the error constant grows as the end nears: keep the step's ratio to the
-                # time left
+                # the error constant grows as the end nears: keep the step's ratio to the time left
                 h *= sig / (sig + h_done)
                 if h >= sig:
                     h = max(sig - 0.9 * reach, 0.5 * sig)

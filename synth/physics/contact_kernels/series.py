@@ -112,8 +112,7 @@ def half_series_eval(S, s):
 
 @compiled()
 def half_series_start(rtol, S, s_max):
-    """``series_start`` for the series in s^(1/2); I2 and L term by term (ds = 2 sigma
-    dsigma)."""
+    """``series_start`` for the series in s^(1/2); I2 and L term by term (ds = 2 sigma dsigma)."""
     A = S[2, 0]
     F = S[3, 0]
     P = S[4, 0]

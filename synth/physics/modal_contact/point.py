@@ -28,10 +28,9 @@ RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
 @dataclass(frozen=True, eq=False)
 class ModalPoint:
     """The finite plate at ``position`` (m) to ``max_frequency`` (Hz) in ``theory``: modes'
-    ``omega`` (rad/s), ``sigma`` (1/s), couplings ``phi_k(x0)^2 / M_k`` (1/kg);
-    ``rigid_coupling`` (1/kg); the residual's lumped modes and tail, ``residual_admittance``
-    (``Re Y`` of the infinite plate at the top ``W``, m/(N s)), ``residual_rate`` ``pi W / 2``
-    (1/s)."""
+    ``omega`` (rad/s), ``sigma`` (1/s), couplings ``phi_k(x0)^2 / M_k`` (1/kg); ``rigid_coupling``
+    (1/kg); the residual's lumped modes and tail, ``residual_admittance`` (``Re Y`` of the infinite
+    plate at the top ``W``, m/(N s)), ``residual_rate`` ``pi W / 2`` (1/s)."""
 
     plate: Plate
     position: tuple[float, float]

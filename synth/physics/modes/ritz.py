@@ -105,9 +105,8 @@ class RitzSolution:
         return dense
 
     def shapes(self, xi, eta, n_modes):
-        """Shapes ``(len(xi), n_modes)`` of the first modes at ``(xi, eta)`` by matrix products
-        per class; shared coordinates share partial sums; temporaries below
-        ``CHUNK_ELEMENTS``."""
+        """Shapes ``(len(xi), n_modes)`` of the first modes at ``(xi, eta)`` by matrix products per
+        class; shared coordinates share partial sums; temporaries below ``CHUNK_ELEMENTS``."""
         out = np.empty((xi.size, n_modes))
         if n_modes == 0 or xi.size == 0:
             return out
