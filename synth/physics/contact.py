@@ -292,8 +292,7 @@ class ContactSolver:
         method: str = "auto",
         **contact_options,
     ) -> ContactSolver:
-        """The solver of ``ball`` on ``plate`` under ``law`` (None: the ball's own); gravity in
-        m/s^2."""
+        """The solver of ``ball`` on ``plate`` under ``law`` (None: the ball's own); g in m/s^2."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):

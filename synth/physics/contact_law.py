@@ -145,8 +145,7 @@ HERTZ_TIME_FACTOR = 2.9433
 
 
 def material_loss_factor(material, omega: float) -> float:
-    """Loss factor ``eta`` (dimensionless) of ``material``'s damping law at ``omega`` (rad/s), 0
-    without one."""
+    """Loss factor ``eta`` of ``material``'s damping law at ``omega`` (rad/s), 0 without one."""
     d = material.damping
     if d is None:
         return 0.0

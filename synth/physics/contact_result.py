@@ -94,8 +94,7 @@ class ImpactResult:
 
     @property
     def exponent(self) -> float:
-        """Exponent ``n`` of ``F = K delta^n``: the pulse rises like ``t^n`` and falls like
-        ``(tau - t)^n``."""
+        """Exponent ``n`` of ``F = K delta^n``: the pulse goes like ``t^n`` and ``(tau - t)^n``."""
         return self._dense.law.n
 
     @property
@@ -117,8 +116,7 @@ class ImpactResult:
         return times, forces
 
     def force_at(self, t) -> float | np.ndarray:
-        """Contact force (N) at times ``t`` (s from first touch) from the dense output; 0
-        outside."""
+        """Contact force (N) at times ``t`` (s from first touch); 0 outside."""
         out, _ = self.force_and_slope_at(np.atleast_1d(t))
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
@@ -151,8 +149,7 @@ class ImpactResult:
         return out, slope
 
     def _force_and_slope(self, s, out, slope) -> None:
-        """Force (N) and rate (N/s) at dimensionless times ``s`` (t / theta) into ``out``,
-        ``slope``."""
+        """Force (N) and rate (N/s) at times ``s`` (t / theta) into ``out``, ``slope``."""
         d = self._dense
         _k.force_slope_at(d, s, out, slope)
         out *= d.f_scale

@@ -95,8 +95,7 @@ def admittance_at(
     return beta_inf * (1.0 + (re - 1.0) * (sx + sy) + (rc - 2.0 * re + 1.0) * sx * sy)
 
 
-#: Mindlin's shear coefficient ``kappa`` (Reissner's 5/6; Mindlin's own pi^2/12 = 0.822
-#: differs by 1.3 %).
+#: Mindlin's shear coefficient ``kappa`` (Reissner's 5/6; Mindlin's pi^2/12 differs by 1.3 %).
 SHEAR_COEFFICIENT = 5.0 / 6.0
 
 

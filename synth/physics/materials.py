@@ -40,8 +40,7 @@ def _closed(name: str, value, bounds: tuple[float, float], unit: str, what: str)
 
 @dataclass(frozen=True)
 class Rayleigh:
-    """Rayleigh damping, ``sigma = alpha/2 + beta omega^2 / 2``: ``alpha`` >= 0 (1/s), ``beta``
-    >= 0 (s)."""
+    """Rayleigh ``sigma = (alpha + beta omega^2) / 2``, ``alpha``, ``beta`` >= 0 (1/s, s)."""
 
     alpha: float
     beta: float

@@ -167,8 +167,7 @@ def roll(
 
 @dataclass(frozen=True, eq=False)
 class Roller:
-    """:func:`roll`'s arguments checked once, for a rolling solved in many calls (SI, unit
-    ``direction``)."""
+    """:func:`roll`'s arguments checked once, for a rolling solved in many calls (SI)."""
 
     plate: Plate
     mass: float

@@ -216,8 +216,7 @@ def expected_mean_square(spectrum: RoughnessSpectrum, *, length: float, spacing:
 def sinusoidal_profile(
     *, amplitude: float, wavelength: float, length: float, spacing: float, phase: float = 0.0
 ) -> Profile:
-    """``amplitude sin(2 pi x / wavelength + phase)`` (m, rad) along ``length`` m every
-    ``spacing`` m."""
+    """``amplitude sin(2 pi x / wavelength + phase)`` (m, rad) over ``length``, ``spacing`` (m)."""
     A = checks.positive("amplitude", amplitude, "metres")
     lam = checks.positive("wavelength", wavelength, "metres")
     phi = checks.real("phase", phase, "rad")
@@ -286,8 +285,7 @@ def _spline(x, y) -> np.ndarray:
 
 
 def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
-    """The cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``|k| <= window``, ``+inf`` out
-    of reach."""
+    """Cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``|k| <= window``, ``+inf`` beyond."""
     d = np.arange(-window, window + 1) * dx
     q = R * R - d * d
     depths = np.full(d.size, np.inf)
@@ -344,8 +342,7 @@ def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
 
 @compiled()
 def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compiled
-    """``e_i`` on the profile's spline by Newton from the best sample; ``off_i`` the maximiser's
-    offset, m."""
+    """``e_i`` by Newton on the profile's spline from the best sample; ``off_i`` its offset, m."""
     n = h.shape[0]
     R2 = R * R
     bests = np.empty(n)

@@ -17,8 +17,7 @@ _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
 
 @compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
-    """``c_edge`` of the factor ``u(x) + c_edge e(x)`` from the better-conditioned edge
-    condition."""
+    """``c_edge`` of ``u(x) + c_edge e(x)`` from the better-conditioned edge condition."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     c, ks, sk = entire_terms(s, h)

@@ -48,8 +48,7 @@ def edge_terms(m2, h):  # pragma: no cover
 
 @compiled()
 def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
-    """The one-dimensional characteristic function at ``s_x = s`` for ``s_y = so``, half-length
-    ``h``."""
+    """The 1-D characteristic function at ``s_x = s`` for ``s_y = so``, half-length ``h``."""
     c, ks, sk = entire_terms(s, h)
     mt, tm = edge_terms(s + 2.0 * so, h)
     if free:
@@ -144,8 +143,7 @@ def solve_pairs(nx, ny, hx, hy, free, nu, sx, sy):  # pragma: no cover
 
 
 def starting_s(n, h, free):
-    """Starting ``s`` of index ``n``: Bolotin's phase ``(n - 1/2) pi``, 0 for the free low
-    families."""
+    """Starting ``s`` of index ``n``: Bolotin's phase ``(n - 1/2) pi``, 0 for free low families."""
     k = (n - 0.5) * math.pi / (2.0 * h)
     if free:
         k = np.where(n >= 2, k, np.where(n == 1, 0.5 * math.pi / (2.0 * h), 0.0))

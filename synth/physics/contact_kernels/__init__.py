@@ -348,8 +348,7 @@ def scales(L, v_in):
 
 @compiled()
 def scaled_yield(delta_y, L, v0, theta):
-    """Yield penetration over ``theta v0``: None without yield, inf where this impact cannot
-    reach it."""
+    """Yield penetration over ``theta v0``: None without yield, inf where out of reach."""
     if delta_y is None:
         return None
     if not yield_reachable(delta_y, L.K, L.m, L.g, L.beta, v0):
@@ -392,8 +391,7 @@ def result(e, P, sc, stiff):
 
 @compiled()
 def pulse(d, separated, times, forces):
-    """The pulse of dense output ``d`` at ``len(times)`` uniform times (s) into ``times`` and
-    ``forces`` (N)."""
+    """The pulse of dense output ``d`` at uniform times (s) into ``times``, ``forces`` (N)."""
     S = new_series(d.law.b)
     series_coefficients(d.law, S)
     sample_pulse(Dense(d.hist, S, d.radau, d.law), d.s_contact, times, forces)

@@ -150,8 +150,7 @@ def start_time(S, rtol, n, b):
 
 @compiled()
 def truncation_error(S, s1, n, b):
-    """``(e, s de/ds)`` at ``s1`` from the terms of the last degrees, which hold every chain's
-    leading term."""
+    """``(e, s de/ds)`` at ``s1`` from the last degrees' terms (every chain's leading term)."""
     e = 0.0
     de = 0.0
     if b != 0.0:

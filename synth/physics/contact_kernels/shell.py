@@ -201,8 +201,7 @@ def dp5_step(y, K, h, law, yn, err):
 
 @compiled()
 def _kink_step(y, K, h, law, yn, err):
-    """Length of the step from ``y`` that ends on the kink ``x = x_t`` (Newton); its state in
-    ``yn``."""
+    """Length of the step from ``y`` ending on the kink ``x = x_t`` (Newton); state in ``yn``."""
     xt = law.xt
     hk = h * (xt - y[0]) / (yn[0] - y[0])
     for _ in range(4):

@@ -102,8 +102,7 @@ def _phi12(z):  # pragma: no cover
 
 @compiled()
 def _transition(omega, sigma, h):  # pragma: no cover
-    """``omega_d`` (rad/s), ``e^(-sigma h)``, ``cos`` and ``sin(omega_d h)`` of a damped mode
-    over ``h`` (s)."""
+    """``omega_d`` (rad/s), ``e^(-sigma h)``, ``cos``, ``sin(omega_d h)`` over ``h`` (s)."""
     wd = math.sqrt(omega * omega - sigma * sigma)
     return wd, math.exp(-sigma * h), math.cos(wd * h), math.sin(wd * h)
 
@@ -146,8 +145,7 @@ def _real_coefficients(a, h):  # pragma: no cover
 
 @compiled()
 def _solve_delta(A, B, K, n):  # pragma: no cover
-    """Root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above (convex,
-    increasing)."""
+    """Root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above (convex)."""
     d = A
     # start from the smaller of the two one-term solutions: both bound the root from above
     d2 = (A / (B * K)) ** (1.0 / n) if B > 0.0 else A

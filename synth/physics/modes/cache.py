@@ -14,8 +14,7 @@ from synth.physics.modes.common import numerics_key
 from synth.physics.modes.ritz import RitzSolution, solution_key, solve_ritz
 from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
-# Solutions held in memory: least recently used ones are dropped beyond 1 GiB (the
-# newest is always kept).
+# Solutions in memory: least recently used dropped beyond 1 GiB (the newest always kept).
 CACHE = MemoryCache("solves", max_bytes=1 << 30)
 
 

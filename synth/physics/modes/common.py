@@ -17,8 +17,7 @@ VERSION = 1
 
 
 def numerics_key() -> dict:
-    """Versions of numpy, scipy and numba (their BLAS and LAPACK set the last bits): part of the
-    disk keys."""
+    """numpy, scipy and numba versions (BLAS and LAPACK set the last bits): part of disk keys."""
     import numba
     import scipy
 

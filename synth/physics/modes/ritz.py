@@ -254,8 +254,7 @@ def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
 
 
 def _bases(aspect: float, omega_req: float, grow: float):
-    """Main and check bases for ``omega_req``; ``TooLarge`` past the dense solver (on the
-    estimate)."""
+    """Main and check bases for ``omega_req``; ``TooLarge`` past the dense solver."""
     kx, ky = _wavenumbers(aspect, omega_req, grow)
     if _check_unknowns(kx, ky) > _MAX_UNKNOWNS:
         raise TooLarge(int(_check_unknowns(kx, ky)))
