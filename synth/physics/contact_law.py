@@ -120,8 +120,7 @@ def shell_law(ball: HollowBall) -> ShellLaw:
 
 
 def own_law(ball: Ball) -> str:
-    """The contact law a ball takes when none is named: "shell" for a
-    :class:`~synth.physics.scene.HollowBall` (its only law), else "hertz"."""
+    """A ball's law when none is named: "shell" for a hollow ball (its only law), else "hertz"."""
     return "shell" if isinstance(ball, HollowBall) else "hertz"
 
 
@@ -340,8 +339,7 @@ TABOR_CONSTRAINT = 2.8
 
 
 def yield_pressure(ball: Ball, plate: Plate) -> float | None:
-    """The limiting contact pressure (Pa): ``2.8 Y`` of the smaller yield stress of the two
-    materials; None when neither has one."""
+    """Limiting contact pressure (Pa): ``2.8 Y`` of the smaller yield stress; None without one."""
     stresses = [
         m.yield_stress for m in (ball.material, plate.material) if m.yield_stress is not None
     ]

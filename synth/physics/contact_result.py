@@ -167,8 +167,7 @@ _ROW_FIELDS = (
 
 
 def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> ImpactResult:
-    """The ``cls`` of kernel result ``r`` by ``method`` with dense output ``dense``; a residual
-    above :data:`ENERGY_RESIDUAL_LIMIT` makes it a failure."""
+    """The ``cls`` of kernel result ``r``; a residual above the limit makes it a failure."""
     status = int(r[_o.R_STATUS])
     residual = r[_o.R_ENERGY_RESIDUAL]
     message = _TINY_REBOUND if r[_o.R_TINY_REBOUND] else _MESSAGES.get(status, "Unknown status.")
@@ -196,8 +195,7 @@ def with_message(result: ImpactResult, message: str) -> ImpactResult:
 
 
 class ShellDense(NamedTuple):
-    """The dense output of a thin-shell contact: history, ``law``, ``s_contact``, scales
-    (``theta`` s, ``f_scale`` N)."""
+    """Dense output of a thin-shell contact (scales ``theta`` s, ``f_scale`` N)."""
 
     hist: np.ndarray
     law: tuple

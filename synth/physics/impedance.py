@@ -142,8 +142,7 @@ def mindlin_point_admittance(plate: Plate, frequency):
 
 
 def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
-    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate over ``[low, high]`` (Hz): an
-    impact hammer's band-averaged measurement."""
+    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate over ``[low, high]`` (Hz)."""
     from scipy.integrate import quad
 
     lo = checks.nonnegative("low", low, "Hz")
@@ -193,8 +192,7 @@ def kirchhoff_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
 
 
 def mindlin_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
-    """The Mindlin plate's flexural-wave speeds (m/s) at ``frequency`` (Hz), the group speed by
-    implicit differentiation of the dispersion relation."""
+    """The Mindlin plate's flexural-wave phase and group speeds (m/s) at ``frequency`` (Hz)."""
     f = checks.positive("frequency", frequency, "Hz")
     w = 2.0 * math.pi * f
     w2 = w * w

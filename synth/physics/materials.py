@@ -155,8 +155,7 @@ def names() -> list[str]:
 
 
 def get(name: str) -> Material:
-    """The built-in material ``name`` (case-insensitive, or an alias), else ``ParameterError``
-    suggesting the nearest."""
+    """The built-in material ``name`` (any case, or an alias), else ``ParameterError``."""
     if not isinstance(name, str):
         raise ParameterError(f"material={name!r} must be a material name (str) or a Material")
     key = name.strip().lower()

@@ -1,5 +1,4 @@
-"""The result array of one impact, its fields' order and :func:`impact_row` (SI results and the
-energy balance of docs/physics.md, "Hertz contact")."""
+"""The result array of one impact: field order and :func:`impact_row` (SI, energy balance)."""
 
 from __future__ import annotations
 

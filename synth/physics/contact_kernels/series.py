@@ -137,8 +137,7 @@ def half_series_start(rtol, S, s_max):
 
 @compiled()
 def start_time(S, rtol, n, b):
-    """Where the truncation error reaches ``rtol``: Newton in log s from ``SERIES_MAX_TIME``
-    down (e is convex there)."""
+    """Where the truncation error reaches ``rtol``: Newton in log s down (e convex there)."""
     s1 = SERIES_MAX_TIME
     for _ in range(30):
         e, de = truncation_error(S, s1, n, b)

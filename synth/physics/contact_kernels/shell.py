@@ -55,8 +55,7 @@ _E = np.array([
 
 @compiled()
 def shell_elastic(x, law):
-    """The elastic force ``f_e`` and the shell's tangent stiffness ``k_s`` (dimensionless)
-    at the penetration ``x >= 0``."""
+    """Elastic force ``f_e`` and tangent stiffness ``k_s`` (dimensionless) at ``x >= 0``."""
     if x < law.xt:
         return law.rR * x + law.rg * x, law.rR
     r = math.sqrt(law.xt * x)
@@ -113,8 +112,7 @@ def hermite(hist, k, s):
 
 @compiled()
 def _root_in_row(hist, k, law, which):
-    """The time in row ``k`` where the penetration (``which`` 0) or the force's numerator (1)
-    first reaches 0: a grid, then bisection."""
+    """Time in row ``k`` where x (``which`` 0) or the force's numerator (1) first reaches 0."""
     lo = hist[k, S_T0]
     hi = lo + hist[k, S_H]
     step = (hi - lo) / 16
@@ -148,8 +146,7 @@ def _event(hist, k, s, law, which):
 
 @compiled()
 def _golden_max(hist, nh, k, s_contact, law, which):
-    """Largest penetration (``which`` 0) or force (1) from row ``k`` to the end of the next
-    (golden-section search)."""
+    """Largest x (``which`` 0) or force (1) from row ``k`` to the next's end (golden section)."""
     j = min(k + 1, nh - 1)
     lo = hist[k, S_T0]
     hi = min(hist[j, S_T0] + hist[j, S_H], s_contact)
@@ -288,8 +285,7 @@ def integrate(law, rtol, atol):
 
 @compiled()
 def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
-    """One impact of the shell law (``k0`` N/m, ``xt_si`` m, ``A`` s, ``beta`` m/(N s)): the
-    result array (``R_*``) and the dense output."""
+    """A shell impact (``k0`` N/m, ``xt_si`` m, ``A`` s, ``beta`` m/(N s)): result, dense output."""
     v0 = v_in + v_free
     theta = math.sqrt(m / k0)
     lam = beta * m / theta

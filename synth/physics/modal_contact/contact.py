@@ -1,5 +1,4 @@
-"""The ball against the plate's modes: the plate's state between impacts, one impact and the
-next landing on the ringing plate."""
+"""The ball against the plate's modes: the plate's state, one impact and the next landing."""
 
 from __future__ import annotations
 
@@ -223,8 +222,7 @@ class ModalContact:
     def solve(
         self, speed: float, state: PlateRinging | None = None, *, n_points: int = 128
     ) -> ModalImpactResult:
-        """The impact at ``speed`` (m/s, downward) on the plate in ``state`` (None: at rest),
-        ``n_points`` pulse samples."""
+        """The impact at ``speed`` (m/s, down) on the plate in ``state`` (None: at rest)."""
         v_in = checks.positive("speed", speed, "m/s")
         n_points = check_points(n_points)
         p = self.point

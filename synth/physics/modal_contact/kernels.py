@@ -1,5 +1,4 @@
-"""Numba kernels of the modal contact (:mod:`synth.physics.modal_contact`, whose docstring
-describes the numerics): one contact in fixed steps and the free ringing of damped modes."""
+"""numba kernels of the modal contact: one contact in fixed steps, free ringing of damped modes."""
 
 from __future__ import annotations
 
@@ -85,8 +84,7 @@ def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
 
 @compiled()
 def _phi12(z):  # pragma: no cover
-    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex), by Taylor
-    series near 0 (no cancellation)."""
+    """``phi_1(z)``, ``phi_2(z)`` (complex), by Taylor series near 0 (no cancellation)."""
     if abs(z) < 0.1:
         p1 = 0j
         p2 = 0j
@@ -240,8 +238,7 @@ def _end_gap(h, q, v, p, F0, qr, vr, x, u, vs, law):  # pragma: no cover
 
 @compiled()
 def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
-    """Advance the modes one step with the force linear from F0 to F1; returns the modal
-    damping loss (trapezoid rule), J."""
+    """Advance the modes one step, force linear from F0 to F1; the damping loss, J (trapezoid)."""
     loss = 0.0
     for k in range(q.size):
         q0 = q[k]
@@ -254,8 +251,7 @@ def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
 
 @compiled()
 def _surface_velocity(v, vr, xdot):  # pragma: no cover
-    """Velocity of the surface under the ball (m/s, upward): modes, rigid body and residual
-    (``x_res`` downward)."""
+    """Velocity of the surface under the ball (m/s, up): modes, rigid body, residual."""
     w = vr - xdot
     for k in range(v.size):
         w += v[k]
@@ -471,8 +467,7 @@ def hermite(u, h, gaps, rates, i):  # pragma: no cover
 
 @compiled()
 def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
-    """Sign of the lossy force before its clip at 0 (yield ``dy``, ``dm`` in m) at fraction
-    ``u`` of step ``i``."""
+    """Sign of the unclipped lossy force (``dy``, ``dm`` in m) at fraction ``u`` of step ``i``."""
     d, rate, _ = hermite(u, h, gaps, rates, i)
     if d <= 0.0:
         return d
@@ -484,8 +479,7 @@ def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
 
 @compiled()
 def force_end(times, forces, gaps, rates, mu, b, dy):  # pragma: no cover
-    """End of a lossy contact's force pulse (s from first touch): the last zero of
-    :func:`_force_sign` between the steps ``times`` (s), to double precision."""
+    """End (s) of a lossy contact's force pulse: the last zero of :func:`_force_sign`."""
     last = times.size - 1
     i = last
     while i >= 0 and not forces[i] > 0.0:

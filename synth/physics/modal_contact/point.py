@@ -48,8 +48,7 @@ class ModalPoint:
 
     @property
     def contact_modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``omega`` (rad/s), ``sigma`` (1/s) and couplings (1/kg) of the band's modes, then the
-        residual's lumped ones."""
+        """``omega`` (rad/s), ``sigma`` (1/s), couplings (1/kg): the band's, then the residual's."""
         return (
             np.concatenate((self.omega, self.residual_omega)),
             np.concatenate((self.sigma, self.residual_sigma)),
@@ -107,8 +106,7 @@ class ModalPoint:
 
 
 def _lumped_real_integral(omega, sigma, coupling, w_lo: float, w_hi: float) -> float:
-    """``Int Re Y d omega`` over ``[w_lo, w_hi]`` (rad/s) of the oscillators, by partial
-    fractions (no branch cut crossed for ``sigma > 0``)."""
+    """``Int Re Y d omega`` over ``[w_lo, w_hi]`` (rad/s) of the oscillators (partial fractions)."""
     total = 0.0
     for w0, sg, c in zip(omega, sigma, coupling, strict=True):
         p = complex(-sg, math.sqrt(w0 * w0 - sg * sg))
@@ -282,8 +280,7 @@ def band_modes(plate: Plate, max_frequency: float):
 
 
 def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
-    """``omega`` (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of :func:`band_modes` at
-    ``position``: from the disk cache, or computed and stored."""
+    """``omega`` (rad/s), couplings (1/kg) at ``position``: from the disk cache, or computed."""
     key = _point_key(plate, position, max_frequency)
     try:
         path = cache_path("contact-point-modes", key)
