@@ -45,8 +45,7 @@ class Impact:
 
 @dataclass(frozen=True)
 class BounceSequence:
-    """The ``impacts`` of one drop in time order, ``stop_reason``, ``drop_height`` (m) and
-    ``gravity`` (m/s^2)."""
+    """A drop's ``impacts`` in order, ``stop_reason``, ``drop_height`` (m), ``gravity`` (m/s^2)."""
 
     impacts: tuple[Impact, ...]
     stop_reason: str
@@ -221,8 +220,7 @@ class _Series:
         return (None, t_next, v_out) if end == NO_END else (BOUNCE_ENDS[end], t, 0.0)
 
     def compiled(self, t: float, v: float):
-        """The physical impacts from ``v`` (m/s) at ``t`` (s) in one compiled call; the
-        ``(t, v)`` it hands over."""
+        """Physical impacts from ``v`` (m/s) at ``t`` (s), one call; the ``(t, v)`` handed over."""
         o = self.o
         if len(self.impacts) >= o.max_impacts:
             self.reason = "max-impacts"
@@ -240,8 +238,7 @@ class _Series:
 
 
 class _ModalSeries(_Series):
-    """The series with the finite plate's modes in every contact: the plate rings between
-    impacts (a free plate's rigid-body motion is left to its supports)."""
+    """The series with the finite plate's modes ringing between impacts (rigid body: supports)."""
 
     def __init__(self, ball, plate, pos, v1, g, o, law, contact_options):
         from synth.physics import modal_contact

@@ -271,8 +271,7 @@ class ContactSolver:
 
     @classmethod
     def _unchecked(cls, **fields) -> ContactSolver:
-        """A solver of checked values without a plate (``__init__`` would cost a good part of
-        an impact's time)."""
+        """A solver of checked values without a plate (``__init__`` costs much of an impact)."""
         solver = object.__new__(cls)
         solver.__dict__.update(
             plate=None, shell=None, yield_penetration=_INF, _beta_inf=None, **fields

@@ -38,8 +38,7 @@ def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -
 
 
 def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> float:
-    """Static Hertz penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis
-    2.48), m; ``gravity`` in m/s^2."""
+    """Static Hertz penetration ``(m g / K)^(2/3)`` (thesis 2.48), m; ``gravity`` in m/s^2."""
     g = checks.positive("gravity", gravity, "m/s^2")
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 

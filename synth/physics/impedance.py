@@ -41,8 +41,7 @@ def corner_impedance(plate: Plate) -> float:
 
 
 def critical_distance(plate: Plate, contact_time: float) -> float:
-    """Distance (m) within which an edge is felt, ``c_g tau / 2``, ``c_g`` at ``omega = pi /
-    tau``, ``tau`` = ``contact_time`` (s)."""
+    """Distance (m) within which an edge is felt, ``c_g tau / 2`` at ``omega = pi / tau`` (s)."""
     tau = (
         contact_time
         if type(contact_time) is float and 0.0 < contact_time < math.inf

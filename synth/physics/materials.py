@@ -277,8 +277,7 @@ def has_contact_surface(material: Material) -> bool:
 
 
 def with_transverse_shear(material: Material) -> Material:
-    """``material`` with ``G_t = E_t / (2 (1 + nu))`` (Pa) of its fitted surface, for the
-    Mindlin plate (docs/physics.md, "Thick plates (Mindlin)")."""
+    """``material`` with ``G_t`` (Pa) of its fitted surface, for the Mindlin plate."""
     surface = contact_surface(material)
     through_thickness = surface.transverse_ratio * material.young
     return replace(material, transverse_shear=through_thickness / (2.0 * (1.0 + material.poisson)))

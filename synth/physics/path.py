@@ -55,8 +55,7 @@ class RollingPart:
 
 @dataclass(frozen=True)
 class RollingEnergy:
-    """Where the rolling's energy went, J: ``initial - final = contact_loss + plate_energy +
-    resistance_work`` up to the solver's error."""
+    """Where the rolling's energy went (J): ``initial - final`` = loss + plate + resistance."""
 
     initial: float
     final: float
@@ -141,8 +140,7 @@ def _along(origin, direction, s: float) -> tuple[float, float]:
 
 
 def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
-    """The bounces of ``scene`` along its line until the ball rolls, leaves the plate or the
-    next impact comes after ``max_duration`` s."""
+    """The bounces of ``scene`` until it rolls, leaves the plate or passes ``max_duration`` (s)."""
     if not isinstance(scene, Scene) or not scene.moving:
         raise ParameterError(f"scene={scene!r} must be a Scene with a non-zero velocity")
     ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact

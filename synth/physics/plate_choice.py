@@ -81,8 +81,7 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
 
 
 def scene_plate(scene) -> PlateChoice:
-    """The plate in a scene's contact: ``contact.plate`` if named, impedance for the shell law,
-    else :func:`choose_plate`."""
+    """The plate in a scene's contact: as named, impedance for the shell law, else chosen."""
     from synth.physics.scene import Scene, check_type
 
     check_type("scene", scene, Scene)

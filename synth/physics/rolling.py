@@ -402,8 +402,7 @@ def _speeds(speed, duration, fs) -> np.ndarray:
 
 @dataclass(frozen=True)
 class LossOfContactSpeed:
-    """The speed (m/s) at which a rolling ball starts to leave the surface, the middle of the
-    bracket ``low`` to ``high``."""
+    """The speed (m/s) at which a rolling ball leaves the surface: the bracket's middle."""
 
     speed: float
     low: float

@@ -331,8 +331,7 @@ LEFT_PLATE = 2
 
 @compiled()
 def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
-    """A bound (m) of the centre's travel over the first ``count`` speeds (m/s) from ``x`` (m),
-    far above the sums' rounding."""
+    """X"""
     travel = count * max(planned[0], planned[count - 1]) / samplerate
     return travel + 1e-9 * (travel + abs(x))
 
@@ -413,8 +412,7 @@ def roll_blocks(
 
 @compiled()
 def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
-    """The touching points' path coordinates (m) of ``centres`` (m) into ``out``: numpy's
-    ``interp`` to the bit."""
+    """Touching points' path coordinates (m) of ``centres`` into ``out`` (as numpy's ``interp``)."""
     last = offsets.shape[0] - 1
     for k in range(centres.shape[0]):
         c = centres[k]

@@ -38,8 +38,7 @@ def read_only(a: np.ndarray) -> np.ndarray:
 
 
 def samples(name: str, value, least: int, most: int, unit: str, nonnegative=False) -> np.ndarray:
-    """``value`` as a new 1-D float array of ``least`` to ``most`` finite samples, else a
-    ``ParameterError`` naming the first bad one."""
+    """``value`` as a new 1-D float array of finite samples, else ``ParameterError``."""
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):

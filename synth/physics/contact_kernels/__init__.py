@@ -138,8 +138,7 @@ def finish(out, D):
 
 @compiled()
 def peak_penetration(D, nh):
-    """Largest penetration of the dense output ``D`` (first ``nh`` rows), refined where
-    ``x' = w - lam f`` changes sign."""
+    """Largest penetration of dense output ``D``, refined where ``x' = w - lam f`` changes sign."""
     hist = D.hist
     ibest = 0
     for k in range(nh):
@@ -158,8 +157,7 @@ def peak_penetration(D, nh):
 
 @compiled()
 def peak_force(D, nh, x_max, s_contact):
-    """Largest force of the dense output ``D``: the elastic force at ``x_max`` without a loss,
-    else by golden-section search up to ``s_contact``."""
+    """Largest force of ``D``: elastic at ``x_max`` without a loss, else golden-section search."""
     P = D.P
     if P.c == 0.0 and P.b == 0.0:
         return elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
@@ -378,8 +376,7 @@ def impact_implicit(L, v_in, rtol):
 
 @compiled(inline="always")
 def result(e, P, sc, stiff):
-    """The result array of ``impact`` from :func:`finish`'s end ``e`` (a yielded contact's
-    energy on its unloading branch)."""
+    """The result array of ``impact`` from :func:`finish`'s end ``e`` (yield: unloading energy)."""
     xy = yield_value(P.xy)
     r = impact_row(e, potential(e.x_end, P.n, P.xy, e.x_max if e.x_max > xy else 0.0), sc)
     r[R_STIFF] = 1.0 if stiff else 0.0

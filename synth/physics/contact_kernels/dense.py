@@ -73,8 +73,7 @@ def hermite_dips(x0, x1, d0, d1):
 
 @compiled()
 def hermite_root(x0, x1, d0, d1):
-    """Fraction of a step where the cubic Hermite interpolant of x (x0 > 0, x1 <= 0) crosses 0,
-    to 1e-6 (it only places the step that is redone)."""
+    """Fraction of a step where x's Hermite interpolant crosses 0, to 1e-6 (places a redo)."""
     a = 0.0
     b = 1.0
     for _ in range(20):
@@ -251,8 +250,7 @@ def force_numerator(x, w, n, c, b, xy, xm):
 
 @compiled()
 def event_root(D, k, which, thr):
-    """Where event ``which`` falls through 0 in step k, by Illinois to machine precision; the
-    step's end if not positive at its start."""
+    """Where event ``which`` falls through 0 in step k (Illinois); else the step's end."""
     hist = D.hist
     P = D.P
     xm = hist[k, H_XM]

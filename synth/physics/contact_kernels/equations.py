@@ -105,8 +105,7 @@ def plastic_work(xy, xm):
 
 @compiled()
 def yield_law_arrays(x, xy, xm, a, r, da, dr):
-    """:func:`yield_law` at each ``x[i]`` with ``xm[i]`` into ``a``, ``r``, ``da``, ``dr``
-    (in metres with ``K = 1``: the law is homogeneous)."""
+    """:func:`yield_law` at each ``x[i]``, ``xm[i]`` (in metres with ``K = 1``: homogeneous)."""
     for i in range(x.shape[0]):
         if x[i] > 0.0:
             a[i], r[i], da[i], dr[i] = yield_law(x[i], xy, xm[i])
@@ -224,8 +223,7 @@ def yield_value(xy):
 
 @compiled()
 def yielded_peak(xy, x, dx, xm, xp, loss):
-    """``(xm, xp, loss)`` after a step to ``x`` at rate ``dx``: a peak past ``xy`` starts
-    unloading, its plastic work lost."""
+    """``(xm, xp, loss)`` after a step to ``x`` at rate ``dx``: a peak past ``xy`` unloads."""
     if xy is not None:
         if xm == 0.0 and x > xy and dx <= 0.0:
             return x, unloading_branch(xy, x)[0], loss + plastic_work(xy, x)

@@ -211,8 +211,7 @@ class ModalContact:
         return PlateRinging(q, v, x, p.omega.size)
 
     def energy(self, state: PlateRinging) -> float:
-        """Energy in ``state`` (J): ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` over the modes plus
-        the tail spring ``a x_res^2 / (2 beta_W)``."""
+        """Energy in ``state`` (J): modes' ``(v^2 + omega^2 q^2) / (2 c)`` plus the tail spring."""
         p = self.point
         omega, _, coupling = p.contact_modes
         q, v = state.q, state.v

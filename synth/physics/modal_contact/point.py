@@ -265,8 +265,7 @@ def _plate_key(plate: Plate, max_frequency: float) -> dict:
 
 
 def band_modes(plate: Plate, max_frequency: float):
-    """The bending modes of ``plate`` up to ``max_frequency`` (Hz) from an eigen-solution of
-    exactly that band (the mode cache's, else a solve without the cache), held in memory."""
+    """Modes of ``plate`` to ``max_frequency`` (Hz), of exactly that band, held in memory."""
     from synth.physics.modes import modes as plate_modes
 
     key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)

@@ -107,8 +107,7 @@ class Modes:
 
     @property
     def solved_for_band(self) -> bool:
-        """True when the eigen-solution is of exactly ``max_frequency`` (results then do not
-        depend on the cache's history)."""
+        """True when solved for exactly ``max_frequency`` (results independent of the cache)."""
         sol = self._solution
         if isinstance(sol, SimplySupported):
             return True
@@ -129,8 +128,7 @@ class Modes:
         return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
     def shapes(self, points, index=None) -> np.ndarray:
-        """Mode shapes (mean square 1) at ``points`` (n, 2) in m from the corner, a column per
-        mode, or per mode of ``index`` (ascending)."""
+        """Shapes (mean square 1) at ``points`` (n, 2; m), a column per mode or per ``index``."""
         if index is not None:
             index = np.asarray(index)
             if (
@@ -212,8 +210,7 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 
 
 def solver_key(plate: Plate, max_frequency: float) -> str:
-    """Text identifying the eigen-solution of ``plate`` up to ``max_frequency`` (Hz) before any
-    solve: the key of caches of results from the modes."""
+    """Text identifying the eigen-solution of ``plate`` to ``max_frequency`` (Hz): a cache key."""
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
 

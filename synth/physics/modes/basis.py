@@ -26,8 +26,7 @@ def basis_alpha(boundary: str) -> int:
 
 @compiled()
 def _recurrence(x, a, p0, out):  # pragma: no cover
-    """``out[d, i, m] = d^d p_m / dxi^d`` at ``x[i]`` of the orthonormal symmetric Jacobi
-    polynomials, by their three-term recurrence."""
+    """``out[d, i, m] = d^d p_m / dxi^d`` at ``x[i]``, orthonormal symmetric Jacobi polynomials."""
     nd, nx, n = out.shape
     if n == 0:
         return
@@ -170,8 +169,7 @@ class RitzProblem:
 
 
 def _stiffness(problem: RitzProblem, I, J, shift=0.0):
-    """Dimensionless stiffness (upper triangle) plus ``shift``: ``lambda = omega^2 L^4 rho h /
-    D``, from the Kirchhoff energy; the mass matrix is the identity."""
+    """Stiffness (upper triangle) plus ``shift``, in ``lambda = omega^2 L^4 rho h / D``."""
     I, J = (np.ascontiguousarray(a, dtype=np.int64) for a in (I, J))
     p = problem
     return _assemble(I, J, *p.mx, *p.my, float(p.rx), float(p.ry), float(p.nu), float(shift))

@@ -89,8 +89,7 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
 
 
 def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
-    """The converged solution of the band ``omega_req`` (dimensionless): from memory, disk, or
-    solved; the same arrays whichever."""
+    """The converged solution of band ``omega_req``: from memory, disk or solved (same arrays)."""
     if not cache:
         sol = solve_ritz(boundary, nu, aspect, omega_req)
         CACHE.count("computed")

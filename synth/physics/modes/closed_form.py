@@ -14,8 +14,7 @@ from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios
 
 
 class SimplySupported:
-    """Closed-form modes of a simply supported rectangle (dimensionless frequencies
-    ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``)."""
+    """Closed-form modes of a simply supported rectangle (``omega L^2 sqrt(rho h / D)``)."""
 
     def __init__(self, aspect, omega_max):
         rx, ry = ratios(aspect)
@@ -76,8 +75,7 @@ class SeparableShapes:
         return _sine_factors(y, math.pi / self.width, self.y_index, index)
 
     def mode_wavenumbers(self) -> np.ndarray:
-        """Wavenumbers ``k_k`` (rad/m): each product of sines solves ``(lap + k_k^2) phi_k = 0``
-        in the whole plane."""
+        """Wavenumbers (rad/m): each product of sines solves ``(lap + k^2) phi = 0`` everywhere."""
         kx = math.pi * (self.x_index + 1.0) / self.length
         ky = math.pi * (self.y_index + 1.0) / self.width
         return np.sqrt(kx * kx + ky * ky)

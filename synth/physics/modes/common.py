@@ -1,5 +1,4 @@
-"""What the plate-mode solutions share: cache version, library keys, temporary budget, aspect
-ratios, and a matrix product kept on the calling thread."""
+"""What the plate-mode solutions share: versions, budgets, aspect ratios, a one-thread product."""
 
 from __future__ import annotations
 

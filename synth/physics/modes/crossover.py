@@ -25,8 +25,7 @@ _MAX_MODES = 2_000_000
 
 
 def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
-    """The band (dimensionless, at most ``omega_hi``) whose Ritz problem has about ``unknowns``
-    per class (bisection)."""
+    """The band (dimensionless, <= ``omega_hi``) with about ``unknowns`` Ritz unknowns per class."""
     lo, hi = 0.0, omega_hi
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -49,8 +48,7 @@ def _seam(omega: np.ndarray, omega_low: float) -> float:
 
 
 class HybridSolution:
-    """Ritz modes up to ``omega_low`` followed by the dynamic edge effect modes above
-    it, up to ``omega_max`` (dimensionless, as :class:`RitzSolution`)."""
+    """Ritz modes to ``omega_low``, edge effect modes above to ``omega_max`` (dimensionless)."""
 
     def __init__(self, ritz: RitzSolution, omega_low: float, edge, omega_max: float):
         omega_low = _seam(ritz.omega, omega_low)
@@ -79,8 +77,7 @@ class HybridSolution:
         return out
 
     def shapes_of(self, xi, eta, index):
-        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the first modes'
-        shapes, the edge effect ones alone."""
+        """Shapes of modes ``index``: Ritz ones from the first modes' columns, edge ones alone."""
         n_r = int(np.searchsorted(index, self.n_low))
         out = np.empty((xi.size, index.size))
         if n_r:

@@ -151,8 +151,7 @@ class RitzSolution:
         return out
 
     def summed(self, n_modes, length, width, wavenumber):
-        """The first ``n_modes`` shapes as :class:`SummedShapes` of a ``length`` x ``width`` (m)
-        plate whose largest bending wavenumber is ``wavenumber`` (rad/m)."""
+        """First ``n_modes`` shapes as :class:`SummedShapes` (``length``, ``width`` m; rad/m)."""
         cls = self.cls[:n_modes]
         n_x = max(int(I.max()) for I, _ in self.index) + 1
         n_y = max(int(J.max()) for _, J in self.index) + 1
@@ -212,8 +211,7 @@ def _index_sets(kx: float, ky: float, check: bool = False) -> list:
 
 
 def _check_unknowns(kx: float, ky: float) -> float:
-    """Estimated unknowns of the check basis' largest class: the pairs fill about pi/4 of the
-    degree rectangle, a quarter per class."""
+    """Estimated unknowns of the check basis' largest class (pi/4 of the degree rectangle / 4)."""
     nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
     ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
     return math.pi / 16.0 * nx_max * ny_max
@@ -266,8 +264,7 @@ def _bases(aspect: float, omega_req: float, grow: float):
 
 
 def _elastic(boundary: str, c: int, lam, vec, lam2):
-    """The class's eigenpairs without the free plate's rigid-body motion (one zero eigenvalue in
-    each of classes 0-2)."""
+    """The class's eigenpairs without the free plate's rigid-body modes (zero eigenvalues)."""
     if boundary != "free" or c == 3:
         return lam, vec, lam2
     if not (lam.size and lam2.size and abs(lam[0]) < 1e-6 * SHIFT and abs(lam2[0]) < 1e-6 * SHIFT):
