@@ -1,11 +1,7 @@
-"""The bounce sequence: impacts strung together by free flight (docs/physics.md, "Bounces").
-
-The ball first touches at ``t1 = sqrt(2 h0 / g)`` with ``v1 = sqrt(2 g h0)``; after impact n,
-``t_(n+1) = t_n + tau_n + 2 v_out,n / g``, ``v_(n+1) = v_out,n`` (air drag negligible, thesis
-appendix A.2), each impact solved at its own speed. The series ends by the first rule met
-(:attr:`BounceSequence.stop_reason`): "settled" (no separation, or the ringing plate met the
-ball in flight), "flight-shorter-than-contact", "floor" (the next impact's kinetic energy
-``floor_db`` below the first's), "max-duration" or "max-impacts"."""
+"""The bounce sequence: impacts strung together by free flight (docs/physics.md, "Bounces"),
+``t_(n+1) = t_n + tau_n + 2 v_out,n / g`` (air drag negligible, thesis appendix A.2), each
+impact solved at its own speed, until "settled", "flight-shorter-than-contact", "floor",
+"max-duration" or "max-impacts"."""
 
 from __future__ import annotations
 
@@ -26,10 +22,9 @@ STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
 
 @dataclass(frozen=True)
 class Impact:
-    """One impact: ``index`` (1 for the first), ``time`` of first touch (s from release), impact
-    ``speed`` (m/s), the contact solution ``result``; ``restitution`` that set the next flight
-    (``result.restitution`` unless a rebound rule replaced it); ``plate_state`` the modal plate's
-    ringing under the ball at first touch (None on the impedance plate, at rest)."""
+    """One impact: ``index`` (from 1), ``time`` (s from release), ``speed`` (m/s), ``result``;
+    ``restitution`` that set the next flight (a rebound rule's if given); ``plate_state`` the
+    modal plate's ringing at first touch (None: at rest)."""
 
     index: int
     time: float
@@ -50,8 +45,7 @@ class Impact:
 
 @dataclass(frozen=True)
 class BounceSequence:
-    """The ``impacts`` of one drop in time order (the sequence behaves as them), the
-    ``stop_reason`` (:data:`STOP_REASONS`), the ``drop_height`` (m) and ``gravity`` (m/s^2)."""
+    """A drop's ``impacts`` in order, ``stop_reason``, ``drop_height`` (m), ``gravity`` (m/s^2)."""
 
     impacts: tuple[Impact, ...]
     stop_reason: str
@@ -94,13 +88,10 @@ ReboundRule = Callable[[ImpactResult, float], float]
 
 @dataclass(frozen=True)
 class BounceOptions:
-    """How :func:`simulate_bounces` solves each impact and when the series ends: ``rtol``, each
-    impedance-plate impact's relative accuracy; ``n_points`` >= 64 samples of each pulse;
-    ``max_frequency``, the modal plate's band, Hz (default
-    :data:`synth.physics.modal_contact.BAND_FACTOR`); ``floor_db`` < 0; ``max_duration`` > 0, the
-    latest start of an impact, s; ``max_impacts`` >= 1; ``rebound``, a :data:`ReboundRule`
-    replacing each flight's restitution (take-off at ``e' v``) while every impact is solved at its
-    own speed (:mod:`synth.stimuli.sequences`)."""
+    """How :func:`simulate_bounces` solves each impact and ends: ``rtol``; ``n_points`` >= 64;
+    ``max_frequency`` of the modal band, Hz; ``floor_db`` < 0; ``max_duration`` > 0 (latest
+    impact start, s); ``max_impacts`` >= 1; ``rebound``, a :data:`ReboundRule` replacing each
+    flight's restitution while every impact is solved at its own speed."""
 
     rtol: float = 1e-6
     n_points: int = 128
@@ -158,13 +149,11 @@ def simulate_bounces(
     options: BounceOptions | None = None,
     **overrides,
 ) -> BounceSequence:
-    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point) and compute every
-    impact until the sequence ends. ``position``: the impact point, m from a corner (None: far
-    from the edges); ``gravity``: m/s^2; ``contact_law``: :data:`synth.physics.scene.CONTACT_LAWS`
-    (None: "shell" for a hollow ball, else "hertz"), its parameters in ``overrides``;
-    ``plate_model``: "impedance" (the infinite plate's, blended towards measured values near free
-    edges) or "modal" (the finite plate's ringing modes, :mod:`synth.physics.modal_contact`);
-    ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give."""
+    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point) until the sequence
+    ends. ``position``: m from a corner (None: far from the edges); ``gravity``: m/s^2;
+    ``contact_law`` (None: the ball's own) with its parameters in ``overrides``;
+    ``plate_model``: "impedance" (blended towards measured values near free edges) or "modal"
+    (the finite plate's ringing modes); ``options``: :class:`BounceOptions`."""
     check_type("ball", ball, Ball)
     check_type("plate", plate, Plate)
     h0 = checks.positive("drop_height", drop_height, "metres")
@@ -195,8 +184,7 @@ def simulate_bounces(
 
 
 class _Series:
-    """The impacts of one drop (``impacts``; ``reason`` None while the series goes on):
-    :meth:`run` is the one bounce loop, :meth:`impact` and :meth:`flight` the plate's step."""
+    """The impacts of one drop; :meth:`run` is the one bounce loop."""
 
     def __init__(self, solver, position, v1: float, gravity: float, o: BounceOptions):
         self.solver, self.position, self.v1, self.gravity, self.o = solver, position, v1, gravity, o
@@ -204,8 +192,7 @@ class _Series:
         self.reason: str | None = None
 
     def run(self, t: float, v: float) -> None:
-        """Impacts one by one from the one at ``v`` (m/s) ``t`` s after release while the ball
-        lands, flights set by the ``rebound`` rule (None: physical)."""
+        """Impacts from the one at ``v`` (m/s) ``t`` s after release while the ball lands."""
         o, rule = self.o, self.o.rebound
         while v > 0.0:
             if len(self.impacts) >= o.max_impacts:
@@ -223,9 +210,8 @@ class _Series:
         return self.solver.solve(v, position=self.position), None
 
     def flight(self, t: float, res: ImpactResult, e: float, v_out: float):
-        """``(reason, t, v)`` after the impact ``res`` started at ``t`` (s), restitution ``e``,
-        take-off ``v_out`` (m/s): why the series ends (None: on), the next impact's start (s) and
-        speed (m/s), by :func:`~synth.physics.contact_kernels.bounce_end`."""
+        """``(reason, t, v)`` after impact ``res`` at ``t`` (s), restitution ``e``, take-off
+        ``v_out`` (m/s): why the series ends (None: on), the next start (s) and speed (m/s)."""
         o = self.o
         end, t_next = bounce_end(
             float(t), self.v1, float(self.gravity), res.success, res.settled, e, v_out,
@@ -234,8 +220,7 @@ class _Series:
         return (None, t_next, v_out) if end == NO_END else (BOUNCE_ENDS[end], t, 0.0)
 
     def compiled(self, t: float, v: float):
-        """The physical impacts from the one at ``v`` (m/s) ``t`` s after release in one compiled
-        call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` it hands over."""
+        """Physical impacts from ``v`` (m/s) at ``t`` (s), one call; the ``(t, v)`` handed over."""
         o = self.o
         if len(self.impacts) >= o.max_impacts:
             self.reason = "max-impacts"
@@ -253,9 +238,7 @@ class _Series:
 
 
 class _ModalSeries(_Series):
-    """:class:`_Series` with the finite plate's modes in every contact: the plate rings between
-    impacts and its ringing enters the next (a free plate's rigid-body motion is left to its
-    supports); with a ``rebound`` rule the plate rings on from its physical state."""
+    """The series with the finite plate's modes ringing between impacts (rigid body: supports)."""
 
     def __init__(self, ball, plate, pos, v1, g, o, law, contact_options):
         from synth.physics import modal_contact
@@ -271,8 +254,7 @@ class _ModalSeries(_Series):
         return self.solver.solve(v, self.state, n_points=self.o.n_points), self.state
 
     def flight(self, t: float, res, e: float, v_out: float):
-        """As :meth:`_Series.flight`, landing on the ringing plate
-        (:func:`~synth.physics.modal_contact.next_touch`): "settled" if it meets the ball rising."""
+        """Landing on the ringing plate: "settled" if it meets the ball rising."""
         from synth.physics.modal_contact import next_touch
 
         o = self.o
@@ -294,9 +276,8 @@ class _ModalSeries(_Series):
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:
-    """The restitution as the thesis measures it from bounce times (section 3.1): ``e_n = t_n /
-    t_(n-1)``, ``t_n`` from the onset of impact n to that of n + 1, impacts 2 to N - 1; the
-    contact times raise it above the physical one by about ``(tau_n / e - tau_(n-1)) /
+    """The restitution as the thesis measures it from bounce times (section 3.1), ``e_n = t_n /
+    t_(n-1)``, impacts 2 to N - 1; contact times raise it by about ``(tau_n / e - tau_(n-1)) /
     t_(n-1)`` (docs/analysis.md)."""
     if not isinstance(seq, BounceSequence):
         raise ParameterError(f"seq={seq!r} must be a BounceSequence")
@@ -305,10 +286,8 @@ def bounce_time_restitution(seq: BounceSequence) -> list[float]:
 
 
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
-    """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (``contact.plate =
-    "auto"`` by :func:`synth.physics.plate_choice.scene_plate`); a scene with a horizontal
-    velocity gives its bounces until it rolls (:func:`synth.physics.path.path_bounces`, whose
-    only option is ``max_duration``)."""
+    """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene`; with a horizontal
+    velocity its bounces until it rolls (only option: ``max_duration``)."""
     check_type("scene", scene, Scene)
     from synth.physics.plate_choice import scene_plate
 

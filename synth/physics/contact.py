@@ -1,8 +1,6 @@
-"""One impact of a ball on a plate's contact stiffness and mechanical impedance, under the
-contact laws of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34, 2.42;
-Hunt & Crossley 1975; Kuwabara & Kono 1987; Brilliantov et al. 1996): :func:`solve_contact`
-from lumped parameters, :func:`solve_impact` from a Ball, a Plate and a law, both through
-:class:`ContactSolver`. The kernels integrate to the local tolerance ``rtol *``
+"""One impact of a ball on a plate's contact stiffness and mechanical impedance under the laws
+of docs/physics.md, "Hertz contact" (thesis eqs. 2.9-2.11, 2.34, 2.42; Hunt & Crossley 1975;
+Kuwabara & Kono 1987; Brilliantov et al. 1996). The kernels integrate to ``rtol *``
 :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so that the global errors of
 restitution and contact time stay below ``rtol``."""
 
@@ -40,8 +38,7 @@ TOLERANCE_SAFETY = 0.2
 MIN_POINTS = 64
 
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
-#: Most impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
-#: its result arrays grow by doubling up to that many (about 200 bytes each), the render's most.
+#: Most impacts of a drop solved in one compiled call (about 200 bytes each).
 DROP_CAPACITY = 100_000
 _INF = math.inf
 
@@ -61,18 +58,13 @@ def solve_contact(  # noqa: PLR0913 (the public keyword API)
     n_points: int = 128,
     method: str = "auto",
 ) -> ImpactResult:
-    """One impact from lumped parameters: the ball's ``mass`` ``m`` (kg), the ``stiffness``
-    ``K`` (N/m^n) and ``exponent`` ``n`` in (1, 4] of ``F = K delta^n`` (Hertz 1.5, elastic
-    foundation 2), the plate's ``admittance`` ``beta = 1/Z`` at the impact point (m/(N s),
-    0: rigid), the impact ``speed`` ``v_in`` (m/s, downward), ``gravity`` ``g`` (m/s^2, 0:
-    none), Hunt-Crossley's ``dissipation`` ``mu`` (s/m), the viscoelastic Hertz contact's
-    ``viscous_time`` ``A`` (s, n = 1.5 only), the plate surface's ``plate_velocity``
-    ``v_free`` before the impact (m/s, upward, constant over the contact); ``rtol`` in
-    [1e-12, 0.1], the relative accuracy of the restitution and the contact time;
-    ``n_points`` >= 64 uniform samples of the pulse; ``method`` "auto" (by stiffness),
-    "DOP853" or "Radau"."""
-    # Plain floats inside their ranges (the usual call) skip the checks, which convert
-    # anything else or name the field, its value and the range.
+    """One impact from lumped parameters: ``mass`` (kg), ``stiffness`` ``K`` (N/m^n) and
+    ``exponent`` ``n`` in (1, 4] of ``F = K delta^n``, the plate's ``admittance`` ``1/Z`` (m/(N s),
+    0: rigid), ``speed`` (m/s, downward), ``gravity`` (m/s^2), Hunt-Crossley ``dissipation`` (s/m),
+    viscoelastic ``viscous_time`` (s, n = 1.5 only), the surface's ``plate_velocity`` (m/s, upward,
+    constant over the contact); ``rtol`` in [1e-12, 0.1] for restitution and contact time;
+    ``n_points`` >= 64 pulse samples; ``method`` "auto", "DOP853" or "Radau"."""
+    # plain floats inside their ranges (the usual call) skip the checks
     values = dict(
         mass=mass, stiffness=stiffness, exponent=exponent, dissipation=dissipation,
         gravity=gravity, rtol=rtol, n_points=n_points, method=method, viscous_time=viscous_time,
@@ -106,8 +98,7 @@ _FLOAT_FIELDS = ("mass", "stiffness", "exponent", "dissipation", "gravity", "rto
 
 
 def _approach(speed, v_free, field: str) -> tuple[float, float]:
-    """``speed`` (m/s, > 0) and the surface's velocity ``v_free`` (m/s, named ``field``) as
-    floats whose sum, the approach speed, is > 0; else ``ParameterError``."""
+    """``speed`` and ``v_free`` (m/s) as floats whose sum, the approach speed, is > 0."""
     if not (type(speed) is float and 0.0 < speed < _INF):
         speed = checks.positive("speed", speed, "m/s")
     if not (type(v_free) is float and -_INF < v_free < _INF):
@@ -121,8 +112,7 @@ def _approach(speed, v_free, field: str) -> tuple[float, float]:
 
 
 def check_law_fields(law) -> dict:
-    """The checked fields (SI units) of a power law's solver (:class:`ContactSolver`,
-    :class:`~synth.physics.modal_contact.ModalContact`)."""
+    """The checked fields (SI) of a power law's solver."""
     n = checks.in_range("exponent", law.exponent, 1.0, 4.0, "dimensionless", hi_open=False)
     A, dy = law.viscous_time, law.yield_penetration
     A_checked = checks.nonnegative("viscous_time", A, "s")
@@ -139,8 +129,7 @@ def check_law_fields(law) -> dict:
 
 
 def _hertz_only(name: str, value, checked: float, exponent: float, what: str) -> float:
-    """``checked`` where it is off (0 or inf) or the law is Hertz's (``exponent`` 1.5), else
-    ``ParameterError``: ``what`` (field ``name``) is the Hertz law's."""
+    """``checked`` if off (0 or inf) or the law is Hertz's, else ``ParameterError``."""
     if checked not in (0.0, _INF) and exponent != 1.5:
         raise ParameterError(
             f"{name}={value!r} with exponent={exponent!r}: {what} applies to the Hertz "
@@ -164,8 +153,7 @@ def check_points(n_points) -> int:
 
 
 def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
-    """The :class:`ImpactResult` of a power law's kernel result ``r`` (a list, fields ``R_*``)
-    and dense output ``hist``."""
+    """The :class:`ImpactResult` of a kernel result ``r`` and dense output ``hist``."""
     stiff = bool(r[_o.R_STIFF])
     xy = None if r[_o.R_XY] == _INF else r[_o.R_XY]
     law = _eq.Law(r[_o.R_INELASTICITY], r[_o.R_G], n, r[_o.R_C], r[_o.R_B], xy)
@@ -193,13 +181,10 @@ def solve_impact(  # noqa: PLR0913 (the public keyword API)
     plate_velocity: float = 0.0,
     n_points: int = 128,
 ) -> ImpactResult:
-    """The impact of ``ball`` on ``plate`` at ``speed`` (m/s) at ``position`` (m from a plate
-    corner; None: far from the edges, the infinite plate's impedance; near an edge the
-    admittance, :func:`synth.physics.impedance.point_admittance`, depends on the contact
-    time and the two are solved together by fixed-point iteration), under ``gravity``
-    (m/s^2) and the ``contact`` law (None: the ball's own) with its parameters
-    (:func:`~synth.physics.contact_law.contact_parameters`); ``rtol``, ``plate_velocity``
-    (m/s, upward) and ``n_points`` as :func:`solve_contact`'s."""
+    """The impact of ``ball`` on ``plate`` at ``speed`` (m/s) at ``position`` (m from a corner;
+    None: the infinite plate's impedance; near an edge admittance and contact time are solved
+    together by fixed-point iteration), under ``gravity`` (m/s^2) and the ``contact`` law (None: the
+    ball's own); ``rtol``, ``plate_velocity`` (m/s) and ``n_points`` as :func:`solve_contact`'s."""
     solver = ContactSolver.for_pair(
         ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
         dissipation=dissipation, viscous_time=viscous_time, exponent=exponent,
@@ -215,10 +200,9 @@ EDGE_ITERATIONS = 80
 
 @dataclass(frozen=True, eq=False)
 class DropImpacts:
-    """The impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
-    their starts (``times``, s from release), speeds (m/s) and results, and how the series
-    ended (one of :data:`synth.physics.contact_kernels.BOUNCE_ENDS`; ``"handed-over"``: the
-    caller goes on with the impact at ``next_time``, s, and ``next_speed``, m/s)."""
+    """The impacts of a drop solved in one compiled call: starts (``times``, s), speeds (m/s),
+    results and how the series ended (``"handed-over"``: the caller goes on at ``next_time``,
+    s, with ``next_speed``, m/s)."""
 
     times: tuple[float, ...]
     speeds: tuple[float, ...]
@@ -230,15 +214,11 @@ class DropImpacts:
 
 @dataclass(frozen=True, eq=False)
 class ContactSolver:
-    """Impacts of one ball on one plate under one contact law, at any speed: built once (the
-    law's parameters, the plate's impedance and every setting checked and derived here), then
-    asked for impacts by :meth:`solve`; the bounce scheduler and the stimuli solve through it.
-    ``mass`` (kg), ``stiffness`` (N/m^n), ``exponent``, ``dissipation`` (s/m),
-    ``viscous_time`` (s), ``gravity`` (m/s^2), ``rtol``, ``n_points`` and ``method`` as in
-    :func:`solve_contact`; ``plate``: its admittance, also near edges (None: lumped
-    parameters); ``shell``: a hollow ball's :class:`~synth.physics.contact_law.ShellLaw`,
-    which then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1);
-    ``yield_penetration`` (m; inf: none): :attr:`~.contact_law.ContactLaw.yield_penetration`."""
+    """Impacts of one ball on one plate under one contact law, at any speed: checked and
+    derived once, then asked by :meth:`solve`. Fields as :func:`solve_contact`'s (SI);
+    ``plate``: its admittance, also near edges (None: lumped); ``shell``: a hollow ball's
+    :class:`~synth.physics.contact_law.ShellLaw` (``stiffness`` its ``k0``, N/m, ``exponent``
+    1); ``yield_penetration`` (m; inf: none)."""
 
     mass: float
     stiffness: float
@@ -291,8 +271,7 @@ class ContactSolver:
 
     @classmethod
     def _unchecked(cls, **fields) -> ContactSolver:
-        """A solver without a plate of checked values (:func:`solve_contact`'s): ``__init__``
-        would take a good part of an impact's time."""
+        """A solver of checked values without a plate (``__init__`` costs much of an impact)."""
         solver = object.__new__(cls)
         solver.__dict__.update(
             plate=None, shell=None, yield_penetration=_INF, _beta_inf=None, **fields
@@ -312,8 +291,7 @@ class ContactSolver:
         method: str = "auto",
         **contact_options,
     ) -> ContactSolver:
-        """The solver of ``ball`` on ``plate`` under the contact ``law`` (None: the ball's own) with
-        ``contact_options`` (:func:`contact_parameters`); gravity in m/s^2."""
+        """The solver of ``ball`` on ``plate`` under ``law`` (None: the ball's own); g in m/s^2."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
@@ -328,13 +306,10 @@ class ContactSolver:
         self, speed: float, start: float, *, position, energy_floor: float, max_duration: float,
         max_impacts: int,
     ) -> DropImpacts:  # fmt: skip
-        """The impacts of a drop in one compiled call (:func:`~.contact_kernels.impacts_explicit`):
-        the first at ``speed`` (m/s) ``start`` s after release, the next ones by the bounce
-        scheduler's rules (``energy_floor``, ``max_duration`` s, ``max_impacts``), each as
-        :meth:`solve` at ``position`` gives it. It stops (``"handed-over"``) before an impact
-        :meth:`solve` must take (Radau IIA, an edge's admittance), at once for a shell law or
-        without a plate."""
-        # as solve() takes them: the automatic choice of integrator at a position
+        """The impacts of a drop in one compiled call, the first at ``speed`` (m/s) ``start`` s
+        after release, each as :meth:`solve` at ``position`` gives it; handed over before an
+        impact only :meth:`solve` can take (Radau IIA, an edge), at once for a shell law or
+        without a plate. ``max_duration`` in s."""
         method = self.method if position is None else "auto"
         if self.shell is not None or method == "Radau" or self.plate is None:
             return DropImpacts((), (), (), "handed-over", float(start), float(speed))
@@ -345,8 +320,7 @@ class ContactSolver:
                 edge = min(x, self.plate.length - x, y, self.plate.width - y)
                 # a little before the edge is felt: solve() decides at the edge itself
                 tau_edge = impedance.edge_contact_time(self.plate, edge) * (1.0 - 1e-9)
-        # the kernel's arrays grow to at most DROP_CAPACITY impacts: beyond, the series
-        # is handed over after that many (solve() goes on, one call each)
+        # beyond DROP_CAPACITY the series is handed over (solve() goes on, one call each)
         take = min(int(max_impacts), DROP_CAPACITY)
         announce("contact")
         rules = _k.Rules(
@@ -380,10 +354,9 @@ class ContactSolver:
         position=None,
         free_velocity: float = 0.0,
     ) -> ImpactResult:
-        """The impact at ``speed`` (m/s, downward) at the ``admittance`` (m/(N s)) if given; else
-        at ``position`` (m from a corner) the one near free edges
-        (:func:`synth.physics.impedance.point_admittance`); else the infinite plate's.
-        ``free_velocity``: the surface's velocity before the impact, m/s, upward."""
+        """The impact at ``speed`` (m/s, downward) at ``admittance`` (m/(N s)) if given, else at
+        ``position`` (m) near free edges, else the infinite plate's. ``free_velocity``: m/s,
+        upward."""
         v, v_free = _approach(speed, free_velocity, "free_velocity")
         if admittance is not None:
             if position is not None:
@@ -398,8 +371,7 @@ class ContactSolver:
         return self._solve_at(x, y, v, v_free)
 
     def _solve_beta(self, beta: float, v_in: float, v_free: float, method=None):
-        """:meth:`solve` on checked floats: the admittance ``beta`` (m/(N s)), speed ``v_in`` and
-        surface velocity ``v_free`` (m/s); ``method`` None: the solver's."""
+        """:meth:`solve` on checked floats (``beta`` m/(N s), speeds m/s)."""
         tol = self.rtol * TOLERANCE_SAFETY
         if self.shell is not None:
             return solve_shell(
@@ -410,11 +382,9 @@ class ContactSolver:
         return _result(r.tolist(), hist, self.exponent, self.n_points)
 
     def _lumped(self, beta: float, v_in: float, v_free: float):
-        """The kernels' :data:`~.contact_kernels.Lumped` parameters at the admittance ``beta``
-        (m/(N s)), the speed ``v_in`` and the surface's velocity ``v_free`` (m/s)."""
+        """The kernels' lumped parameters at ``beta`` (m/(N s)), ``v_in``, ``v_free`` (m/s)."""
         m, K, g = self.mass, self.stiffness, self.gravity
-        # None where no impact approached at v0 or slower can reach the yield penetration
-        # (contact_kernels.yield_reachable): numba then runs the kernels compiled without it
+        # None where the yield is out of reach: numba then runs the kernels compiled without it
         delta_y = self.yield_penetration
         if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v_in + v_free):
             delta_y = None
@@ -423,11 +393,9 @@ class ContactSolver:
         )
 
     def _solve_at(self, x: float, y: float, v_in: float, v_free: float) -> ImpactResult:
-        """The impact at ``(x, y)`` (m, checked) at the admittance of
-        :func:`synth.physics.impedance.point_admittance`: the root of ``A(tau(beta)) = beta``
-        (``tau`` the contact time), by fixed-point iteration kept inside a bracket, bisection when
-        it leaves it or stalls, to ``|r| <= rtol beta / 10``; a jump of ``A(tau(beta))`` is
-        reported in the message."""
+        """The impact at ``(x, y)`` (m) at the admittance near edges: the root of ``A(tau(beta))
+        = beta`` (``tau`` the contact time) by bracketed fixed-point iteration and bisection, to
+        ``|r| <= rtol beta / 10``."""
         plate, beta_inf, tol = self.plate, self._beta_inf, self.rtol
         result = self._solve_beta(beta_inf, v_in, v_free, "auto")
         if plate.boundary != "free" or not result.success:

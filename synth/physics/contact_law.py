@@ -1,8 +1,6 @@
-"""The contact law of a ball on a plate, from their materials and sizes: the contact modulus
-and Hertz stiffness, the law's parameters (Hertz, Hunt-Crossley, viscoelastic Hertz with each
-material's loss; the foundation of a layered surface) and the measured model's surfaces
-(docs/physics.md, "Hertz contact" and "Contact losses"). :mod:`synth.physics.contact`
-integrates the impact these parameters set."""
+"""The contact law of a ball on a plate from their materials and sizes: Hertz, Hunt-Crossley,
+viscoelastic Hertz with each material's loss, the layered surface's foundation, and the
+measured surfaces (docs/physics.md, "Hertz contact" and "Contact losses")."""
 
 from __future__ import annotations
 
@@ -25,9 +23,8 @@ def effective_modulus(ball: Ball, plate: Plate) -> float:
 
 
 def hertz_stiffness(ball: Ball, plate: Plate, transverse_ratio: float = 1.0) -> float:
-    """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5;
-    the plate's side taken at ``transverse_ratio`` (dimensionless) times its modulus (see
-    :class:`synth.physics.materials.ContactSurface`)."""
+    """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5,
+    the plate's modulus times ``transverse_ratio`` (dimensionless)."""
     plate_modulus = transverse_ratio * plate.material.effective_modulus
     e_star = 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate_modulus)
     return 4.0 / 3.0 * math.sqrt(ball.radius) * e_star
@@ -41,8 +38,7 @@ def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -
 
 
 def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> float:
-    """Static Hertz penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis
-    2.48), m; ``gravity`` in m/s^2."""
+    """Static Hertz penetration ``(m g / K)^(2/3)`` (thesis 2.48), m; ``gravity`` in m/s^2."""
     g = checks.positive("gravity", gravity, "m/s^2")
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
@@ -50,10 +46,8 @@ def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> f
 @dataclass(frozen=True)
 class ContactLaw:
     """The constants of a contact law (docs/physics.md, "Hertz contact" and "Contact losses"):
-    ``stiffness`` ``K`` (N/m^n) and ``exponent`` ``n`` of ``F = K delta^n``, Hunt-Crossley's
-    ``dissipation`` ``mu`` (s/m), the viscoelastic ``viscous_time`` ``A`` (s), a hollow
-    ball's ``shell`` law, and the ``yield_penetration`` ``delta_y`` (m; inf: none) past which
-    the Hertz contact flows plastically (:func:`yield_penetration`)."""
+    ``stiffness`` ``K`` (N/m^n), ``exponent`` ``n``, Hunt-Crossley ``dissipation`` (s/m),
+    ``viscous_time`` (s), a hollow ball's ``shell`` law, ``yield_penetration`` (m; inf: none)."""
 
     stiffness: float
     exponent: float
@@ -63,21 +57,18 @@ class ContactLaw:
     yield_penetration: float = math.inf
 
 
-#: Pogorelov's constant of the flattened spherical shell with its inverted (mirror-buckled)
-#: cap, ``F = C (E h^(5/2) / (R (1 - nu^2)^(3/4))) delta^(1/2)`` (A. V. Pogorelov, "Bendings
-#: of Surfaces and Stability of Shells", AMS Translations of Mathematical Monographs 72,
-#: 1988), dimensionless.
+#: Pogorelov's constant of the flattened spherical shell with its inverted (mirror-buckled) cap, ``F
+#: = C (E h^(5/2) / (R (1 - nu^2)^(3/4))) delta^(1/2)`` (A. V. Pogorelov, "Bendings of Surfaces and
+#: Stability of Shells", AMS Translations of Mathematical Monographs 72, 1988), dimensionless.
 POGORELOV_CONSTANT = 3.56
 
 
 @dataclass(frozen=True)
 class ShellLaw:
-    """The thin-shell contact of a :class:`~synth.physics.scene.HollowBall` on a flat
-    (docs/physics.md, "Hollow balls"): ``F = min(k_R delta, C_P delta^(1/2)) + k_g delta``
-    with the shell's Kelvin-Voigt loss ``A k_s d(delta)/dt``: ``reissner_stiffness``
-    ``k_R`` (N/m, :func:`reissner_stiffness`), ``pogorelov_constant`` ``C_P`` (N/m^(1/2),
-    :func:`pogorelov_constant`), ``gas_stiffness`` ``k_g = 2 pi R p`` (N/m, the gauge
-    pressure on the flat contact area ``pi (2 R delta)``) and ``viscous_time`` ``A`` (s)."""
+    """The thin-shell contact of a hollow ball on a flat (docs/physics.md, "Hollow balls"): ``F =
+    min(k_R delta, C_P delta^(1/2)) + k_g delta`` with a Kelvin-Voigt loss: ``reissner_stiffness``
+    (N/m), ``pogorelov_constant`` (N/m^(1/2)), ``gas_stiffness`` ``2 pi R p`` (N/m, the gauge
+    pressure on the flat area ``pi (2 R delta)``), ``viscous_time`` (s)."""
 
     reissner_stiffness: float
     pogorelov_constant: float
@@ -91,8 +82,7 @@ class ShellLaw:
 
     @property
     def transition(self) -> float:
-        """``delta_t = (C_P / k_R)^2``, m: the deflection where the two shell laws meet
-        (Reissner's below, Pogorelov's above: the smaller of the two forces)."""
+        """Deflection (m) where Reissner's and Pogorelov's laws meet (the smaller force holds)."""
         return (self.pogorelov_constant / self.reissner_stiffness) ** 2
 
     def elastic_force(self, delta):
@@ -117,11 +107,9 @@ def pogorelov_constant(ball: HollowBall) -> float:
 
 
 def shell_law(ball: HollowBall) -> ShellLaw:
-    """The :class:`ShellLaw` of ``ball`` on a flat. Left out: the plate's indentation (the
-    flattened shell spreads its force over a disc of radius ``sqrt(2 R delta)``, where the
-    plate is far stiffer) and the gas' compression (volume change ~ ``pi R delta^2``, second
-    order). Loss: a Kelvin-Voigt shell of the material's ``eta`` at ``omega_c = sqrt(k0 /
-    m)``, ``A = eta / omega_c``."""
+    """The :class:`ShellLaw` of ``ball``. Left out: the plate's indentation (the force spreads
+    over a disc of radius ``sqrt(2 R delta)`` on a far stiffer plate) and the gas' compression
+    (second order). Loss: Kelvin-Voigt, ``A = eta / omega_c``, ``omega_c = sqrt(k0 / m)``."""
     kR = reissner_stiffness(ball)
     cP = pogorelov_constant(ball)
     kg = 2.0 * math.pi * ball.shell_radius * ball.pressure
@@ -131,16 +119,13 @@ def shell_law(ball: HollowBall) -> ShellLaw:
 
 
 def own_law(ball: Ball) -> str:
-    """The contact law a ball takes when none is named: "shell" for a
-    :class:`~synth.physics.scene.HollowBall` (its only law), else "hertz"."""
+    """A ball's law when none is named: "shell" for a hollow ball (its only law), else "hertz"."""
     return "shell" if isinstance(ball, HollowBall) else "hertz"
 
 
 def resolved_surface(plate: Plate, law: str, surface: str) -> str:
-    """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``: "auto"
-    is, for the Hertz law, "fitted" on a material with a fitted surface
-    (:func:`synth.physics.materials.contact_surface`) else "material" (the published loss
-    factors, :func:`material_viscous_time`); "ideal" for the other laws."""
+    """The plate's side that ``surface`` names for ``law``: "auto" is "fitted" for Hertz on a
+    material with a fitted surface, else "material"; "ideal" for other laws."""
     if surface != "auto":
         return surface
     if law != "hertz":
@@ -158,9 +143,7 @@ HERTZ_TIME_FACTOR = 2.9433
 
 
 def material_loss_factor(material, omega: float) -> float:
-    """The loss factor ``eta`` (dimensionless) of ``material``'s damping law at ``omega``
-    (rad/s): a ``LossFactor``'s ``eta``, a ``Rayleigh`` law's ``alpha / omega + beta omega``,
-    0 without a damping law."""
+    """Loss factor ``eta`` of ``material``'s damping law at ``omega`` (rad/s), 0 without one."""
     d = material.damping
     if d is None:
         return 0.0
@@ -180,12 +163,10 @@ def hertz_contact_time(mass: float, stiffness: float, speed: float) -> float:
 def material_viscous_time(
     ball: Ball, plate: Plate, transverse_ratio: float = 1.0, plate_share: float | None = None
 ) -> float:
-    """The dissipative time ``A`` (s) of the viscoelastic Hertz contact of ``ball`` on
-    ``plate`` from the materials' loss factors (docs/physics.md, "Contact losses"): each body
-    a Kelvin-Voigt solid with ``A_i = eta_i / omega_c``, ``omega_c = pi / tau_c`` of the
-    elastic contact at :data:`LOSS_REFERENCE_SPEED`; the compliances add, so to first order
-    ``A = E* sum_i A_i / E'_i``. ``transverse_ratio`` scales the plate's modulus;
-    ``plate_share`` (s) replaces the plate's term ``E* A_p / E'_p`` (None: its material's)."""
+    """Dissipative time ``A`` (s) of the viscoelastic Hertz contact from the materials' loss
+    factors (docs/physics.md, "Contact losses"): Kelvin-Voigt bodies, ``A_i = eta_i /
+    omega_c`` at :data:`LOSS_REFERENCE_SPEED`, compliances adding, ``A = E* sum_i A_i / E'_i``.
+    ``plate_share`` (s) replaces the plate's term (None: its material's)."""
     K = hertz_stiffness(ball, plate, transverse_ratio)
     tau_c = hertz_contact_time(ball.mass, K, LOSS_REFERENCE_SPEED)
     omega_c = math.pi / tau_c
@@ -201,9 +182,8 @@ def material_viscous_time(
 
 
 def _contact_loss_factor(body, name: str, omega: float) -> float:
-    """:func:`material_loss_factor` of ``body`` at ``omega`` (rad/s), or ``ParameterError``
-    naming ``name.material.damping`` when not below 1 (a solid's bound; a Rayleigh law can
-    exceed it at the contact's frequency)."""
+    """:func:`material_loss_factor` at ``omega`` (rad/s), else ``ParameterError`` when not below
+    1 (a solid's bound, which a Rayleigh law can exceed)."""
     eta = material_loss_factor(body.material, omega)
     if not eta < 1.0:
         raise ParameterError(
@@ -215,10 +195,8 @@ def _contact_loss_factor(body, name: str, omega: float) -> float:
 
 
 def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
-    """The dissipative time ``A`` (s) of ``ball`` on ``plate`` with its fitted viscoelastic
-    ``surface``, fitted with a steel ball: the board's term scales with the ball's share of
-    the indentation and the ball's own term replaces the steel's (a steel ball gets the
-    fitted value)."""
+    """Dissipative time ``A`` (s) with a fitted ``surface`` (fitted with a steel ball): the board's
+    term scaled by the ball's share of the indentation, the ball's own term replacing steel's."""
     steel = replace(ball, material=get_material("steel"), mass=ball.mass)
     plate_modulus = surface.transverse_ratio * plate.material.effective_modulus
     ball_modulus = ball.material.effective_modulus
@@ -231,8 +209,7 @@ def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
 
 
 def _check_surface_alone(surface: str, contact: str, given: dict) -> None:
-    """Refuse a law other than Hertz, or any law argument in ``given``, beside a measured
-    surface, which sets the whole contact law itself."""
+    """Refuse another law, or any law argument, beside a measured surface."""
     why = {
         "fitted": "the fit is of a Hertz contact with its own loss",
         "material": "the materials' loss is a viscoelastic Hertz contact's",
@@ -247,8 +224,7 @@ def _check_surface_alone(surface: str, contact: str, given: dict) -> None:
 
 
 def _measured_law(ball: Ball, plate: Plate, surface: str) -> ContactLaw:
-    """The Hertz law of a measured ``surface`` ("fitted" or "material") with its loss and
-    the materials' yield."""
+    """The Hertz law of a measured ``surface`` with its loss and the materials' yield."""
     if surface == "material":
         K = hertz_stiffness(ball, plate)
         mu, A = 0.0, material_viscous_time(ball, plate)
@@ -276,19 +252,14 @@ _REQUIRED = {
 def contact_parameters(
     ball: Ball, plate: Plate, contact: str | None = "hertz", *, surface: str = "ideal", **options
 ) -> ContactLaw:
-    """The constants of a named ``contact`` law (docs/physics.md, "Hertz contact"): one of
-    :data:`~synth.physics.scene.CONTACT_LAWS`, None the ball's own (:func:`own_law`);
-    "shell", a :class:`~synth.physics.scene.HollowBall`'s thin-shell law (:func:`shell_law`,
-    its only law). ``surface`` "ideal": the plate an isotropic elastic half-space (the
-    thesis' model); "fitted" ("hertz" only): the material's fitted surface
-    (:func:`synth.physics.materials.contact_surface`), Hertz at its through-thickness
-    modulus with its loss; "auto": the model closest to measurement
-    (:func:`resolved_surface`). ``options`` (:data:`LAW_OPTIONS`), required by their law,
-    refused by the others: Hunt-Crossley's ``dissipation`` ``mu`` (s/m); the viscoelastic
-    Hertz contact's ``viscous_time`` ``A`` (s) of ``F = K (delta^(3/2) + (3/2) A
-    delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara & Kono 1987; Brilliantov et al. 1996);
-    "power-law"'s ``exponent`` ``n`` in (1, 4] and ``stiffness`` ``K_n`` (N/m^n);
-    "elastic-foundation"'s Winkler ``layer_depth`` (m, default: the plate's thickness)."""
+    """The constants of a named ``contact`` law (docs/physics.md, "Hertz contact"), None the
+    ball's own. ``surface`` "ideal": an isotropic elastic half-space (the thesis' model);
+    "fitted" (Hertz only): the material's fitted surface; "auto": the model closest to
+    measurement. ``options``, required by their law and refused by others: Hunt-Crossley's
+    ``dissipation`` (s/m); the viscoelastic ``viscous_time`` ``A`` (s) of ``F = K (delta^(3/2)
+    + (3/2) A delta^(1/2) d(delta)/dt)`` (Kuwabara & Kono 1987; Brilliantov et al. 1996);
+    "power-law"'s ``exponent`` in (1, 4] and ``stiffness`` (N/m^n); "elastic-foundation"'s
+    ``layer_depth`` (m, default the plate's thickness)."""
     for key in options:
         checks.choice("contact parameter", key, LAW_OPTIONS)
     given = {key: options.get(key) for key in LAW_OPTIONS}
@@ -336,8 +307,7 @@ _NEEDS = {
 
 
 def _shell_parameters(ball, contact, surface, given: dict) -> ContactLaw:
-    """:func:`contact_parameters` of the thin-shell law: a :class:`HollowBall` under
-    ``contact="shell"`` and nothing else (its loss is its shell's own)."""
+    """The thin-shell law's constants: a :class:`HollowBall` under ``contact="shell"`` only."""
     if not isinstance(ball, HollowBall):
         raise ParameterError(
             f"contact={contact!r} applies to a HollowBall only (a thin shell), not {ball!r}"
@@ -368,9 +338,7 @@ TABOR_CONSTRAINT = 2.8
 
 
 def yield_pressure(ball: Ball, plate: Plate) -> float | None:
-    """The limiting contact pressure ``p_y`` (Pa) of ``ball`` on ``plate``: the hardness
-    ``2.8 Y`` (:data:`TABOR_CONSTRAINT`) of the smaller yield stress ``Y`` of the two
-    materials; None when neither has one (the contact elastic at every speed)."""
+    """Limiting contact pressure (Pa): ``2.8 Y`` of the smaller yield stress; None without one."""
     stresses = [
         m.yield_stress for m in (ball.material, plate.material) if m.yield_stress is not None
     ]
@@ -378,12 +346,10 @@ def yield_pressure(ball: Ball, plate: Plate) -> float | None:
 
 
 def yield_speed(ball: Ball, plate: Plate) -> float | None:
-    """The impact speed ``V_y`` (m/s) at which the peak pressure of the elastic Hertz
-    impact of ``ball`` on a rigid flat of ``plate``'s modulus reaches :func:`yield_pressure`,
-    ``V_y = (pi / (2 E*))^2 (8 pi R^3 p_y^5 / (15 m))^(1/2)`` (C. Thornton, "Coefficient of
-    restitution for collinear collisions of elastic-perfectly plastic spheres", J. Appl.
-    Mech. 64 (1997) 383; for a solid sphere ``1.56 (p_y^5 / (E*^4 rho))^(1/2)``).
-    None without a yield stress; ``ParameterError`` for a hollow ball (its shell law)."""
+    """Impact speed (m/s) at which the elastic Hertz impact's peak pressure reaches
+    :func:`yield_pressure`, ``V_y = (pi / (2 E*))^2 (8 pi R^3 p_y^5 / (15 m))^(1/2)`` (C.
+    Thornton, J. Appl. Mech. 64 (1997) 383). None without a yield stress; ``ParameterError``
+    for a hollow ball."""
     if isinstance(ball, HollowBall):
         raise ParameterError(
             f"ball={ball!r}: a HollowBall's contact is the thin-shell law, which has no "
@@ -400,14 +366,13 @@ def yield_speed(ball: Ball, plate: Plate) -> float | None:
 
 
 def plastic_restitution(speed: float, v_yield: float | None) -> float:
-    """Restitution (dimensionless) of an elastic-perfectly plastic Hertz contact at the
-    impact ``speed`` (m/s) with the yield speed ``v_yield`` (m/s,
-    :func:`yield_speed`; None: elastic): 1 up to the yield speed, above it Thornton's
-    closed form (J. Appl. Mech. 64 (1997) 383), with ``r = V_y / v``,
+    """Restitution of an elastic-perfectly plastic Hertz contact at ``speed`` (m/s) with yield
+    speed ``v_yield`` (m/s; None: elastic): 1 up to it, above Thornton's closed form (J. Appl.
+    Mech. 64 (1997) 383), ``r = V_y / v``,
 
         e = (6 sqrt(3) / 5)^(1/2) (1 - r^2 / 6)^(1/2) (r / (r + 2 (6/5 - r^2 / 5)^(1/2)))^(1/4)
 
-    which falls as ``v^(-1/4)`` far above the yield speed (Johnson 1985, section 11.4)."""
+    falling as ``v^(-1/4)`` far above (Johnson 1985, section 11.4)."""
     v = checks.positive("speed", speed, "m/s")
     if v_yield is None:
         return 1.0
@@ -420,10 +385,8 @@ def plastic_restitution(speed: float, v_yield: float | None) -> float:
 
 
 def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
-    """The penetration ``delta_y = R (pi p_y / (2 E*))^2`` (m) at which the peak pressure
-    ``p_0 = 2 E* a / (pi R)`` of the Hertz contact of stiffness ``K = 4/3 E* R^(1/2)``
-    (``stiffness``, N/m^1.5) reaches :func:`yield_pressure`, ``a = (R delta)^(1/2)`` (C.
-    Thornton, J. Appl. Mech. 64 (1997) 383); inf without a yield stress."""
+    """Penetration ``delta_y = R (pi p_y / (2 E*))^2`` (m) at which the Hertz peak pressure of
+    ``stiffness`` (N/m^1.5) reaches :func:`yield_pressure` (Thornton 1997); inf without one."""
     p_y = yield_pressure(ball, plate)
     if p_y is None:
         return math.inf
@@ -433,10 +396,8 @@ def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
 
 
 def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:
-    """The yield speed ``V_y`` (m/s) of ``ball`` on ``plate`` under ``law`` (None: the ball's
-    own) and ``surface``: ``1/2 m V_y^2 = (2/5) K delta_y^(5/2)`` of the law's own Hertz
-    contact on a rigid flat. Only the measured surfaces ("material", "fitted", "auto") of the
-    Hertz law carry a yield; None for the others."""
+    """Yield speed (m/s) under ``law`` and ``surface``, ``1/2 m V_y^2 = (2/5) K delta_y^(5/2)``;
+    only the measured surfaces of the Hertz law carry a yield, else None."""
     checks.choice("surface", surface, SURFACE_MODELS)
     if isinstance(ball, HollowBall) or surface == "ideal":
         return None
@@ -449,10 +410,8 @@ def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -
 
 
 def yield_rebound(ball: Ball, plate: Plate):
-    """A rebound rule of :func:`synth.physics.bounces.simulate_bounces` (``rebound=``): ``e'
-    = e(v) plastic_restitution(v, V_y)``, the solver's restitution times Thornton's at the
-    pair's :func:`yield_speed` (the losses taken as independent; the pulse stays elastic),
-    for a surface whose law carries no yield, e.g. "ideal"."""
+    """A rebound rule: the solver's restitution times Thornton's at the pair's :func:`yield_speed`
+    (losses independent; the pulse stays elastic), for a surface whose law carries no yield."""
     v_yield = yield_speed(ball, plate)
 
     def rebound(result, speed: float) -> float:

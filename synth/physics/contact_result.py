@@ -1,8 +1,5 @@
-"""The outcome of one impact: :class:`ImpactResult`, built by :func:`result_from_row` from
-a contact kernel's result array (``contact_kernels/outcome.py``) and dense output, from
-which the pulse is sampled on first access; the hollow ball's :class:`ShellImpactResult`
-and its solve (the thin-shell law of docs/physics.md, "Hollow balls", integrated by
-:func:`synth.physics.contact_kernels.shell.shell_impact`)."""
+"""The outcome of one impact, its pulse sampled from the solver's dense output on first access;
+the hollow ball's thin-shell impact (docs/physics.md, "Hollow balls")."""
 
 from __future__ import annotations
 
@@ -31,10 +28,8 @@ _TINY_REBOUND = (
 )
 #: Status of a contact integrated to its end whose energy balance is not met.
 ENERGY_IMBALANCE = -3
-#: Largest energy residual (relative, see ``ImpactResult.energy_residual``) of a result
-#: reported as a success: the solver meets its tolerance with residuals of 1e-7 and
-#: below; 1 % means the integration lost the physics (e.g. an admittance so large
-#: that the contact lasts less than the time axis resolves).
+#: Largest relative energy residual of a success: the solver meets its tolerance at 1e-7 and
+#: below; 1 % means the integration lost the physics (a contact shorter than its time axis).
 ENERGY_RESIDUAL_LIMIT = 0.01
 
 
@@ -46,10 +41,8 @@ def _energy_message(residual: float) -> str:
 
 
 class DenseOutput(NamedTuple):
-    """The solver's dense output of one contact, for sampling the pulse afterwards (the pulse
-    kernels' one argument): the kernels' step history, the integrator (``radau``), the
-    dimensionless ``law`` (``contact_kernels.equations.Law``), the end of contact
-    ``s_contact`` and the scales (``theta``, s; ``f_scale``, N)."""
+    """The dense output of one contact, the pulse kernels' one argument: step history, integrator,
+    dimensionless ``law``, end ``s_contact`` and scales (``theta`` s, ``f_scale`` N)."""
 
     hist: np.ndarray
     radau: bool
@@ -62,21 +55,15 @@ class DenseOutput(NamedTuple):
 
 @dataclass(frozen=True, eq=False)
 class ImpactResult:
-    """The outcome of one impact (SI units): ``restitution`` ``e = v_out / v_in`` (0 when
-    settled); ``contact_time`` (s), the force pulse's length (force > 0, what a force
-    transducer measures; for a settled ball, when it was proven unable to separate);
-    ``separation_time`` (s), to the penetration's return to 0 (the bounce scheduler's clock;
-    later than ``contact_time`` with a loss, docs/physics.md, "Contact losses");
-    ``max_penetration`` (m), ``peak_force`` (N), ``impulse`` (N s); Zener's ``inelasticity``
-    ``lam = beta m / theta``; ``settled``, the ball never separated; ``rebound_speed``
-    ``v_out = v_s(tau) - v_free`` (m/s, 0 if settled); ``plate_energy`` ``beta Int F^2 dt``
-    (J); ``time``, ``force``: uniform samples of the pulse to separation (s, N), from the
-    dense output on first access; ``energy_residual``, the energy balance's error
-    (docs/physics.md, "Hertz contact") relative to the energy exchanged; ``success``,
-    integrated to its end; ``status`` 0 separated, 1 settled, negative a failure (-3: the
-    balance off by more than ``ENERGY_RESIDUAL_LIMIT``), ``message`` saying which;
-    ``n_steps``, accepted steps after the series start; ``method``, ``"DOP853"``,
-    ``"Radau"`` or ``"DOPRI5"`` (a hollow ball's shell law)."""
+    """The outcome of one impact (SI): ``restitution`` ``v_out / v_in`` (0 when settled);
+    ``contact_time`` (s), the force pulse's length (what a force transducer measures);
+    ``separation_time`` (s), to the penetration's return to 0 (later with a loss, docs/physics.md,
+    "Contact losses"); ``max_penetration`` (m), ``peak_force`` (N), ``impulse`` (N s); Zener's
+    ``inelasticity`` ``beta m / theta``; ``settled``; ``rebound_speed`` (m/s); ``plate_energy``
+    ``beta Int F^2 dt`` (J); ``time``, ``force`` (s, N): the pulse to separation;
+    ``energy_residual``, relative to the energy exchanged; ``status`` 0 separated, 1 settled,
+    negative a failure (-3: the balance off by more than ``ENERGY_RESIDUAL_LIMIT``), with
+    ``message``; ``n_steps``; ``method``, ``"DOP853"``, ``"Radau"`` or ``"DOPRI5"`` (shell law)."""
 
     restitution: float
     contact_time: float
@@ -107,15 +94,13 @@ class ImpactResult:
 
     @property
     def exponent(self) -> float:
-        """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
-        rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
-        separation."""
+        """Exponent ``n`` of ``F = K delta^n``: the pulse goes like ``t^n`` and ``(tau - t)^n``."""
         return self._dense.law.n
 
     @property
     def pulse_order(self) -> float:
         """Exponent ``q`` of the trapezoid rule's error ``C h^q`` on the pulse (the modal bank
-        extrapolates with it): ``n + 1``; ``3/2`` with the viscoelastic loss (``t^(1/2)``)."""
+        extrapolates with it): ``n + 1``, ``3/2`` with the viscoelastic loss."""
         d = self._dense
         if d is not None and d.law.b != 0.0:
             return 1.5
@@ -131,17 +116,15 @@ class ImpactResult:
         return times, forces
 
     def force_at(self, t) -> float | np.ndarray:
-        """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
-        solver's dense output (its accuracy is the solver's); 0 outside the contact."""
+        """Contact force (N) at times ``t`` (s from first touch); 0 outside."""
         out, _ = self.force_and_slope_at(np.atleast_1d(t))
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
     def pulse_samples(
         self, step: float, points: int, offset: float, period: float, samples: int, out=None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Force (N) and its rate (N/s) at ``j step`` (s, ``j < points``) and then at ``offset +
-        m period`` (s, ``m < samples``) from first touch, in one call. ``out``: an optional
-        (2, >= points + samples) float array whose rows take them (returned as views)."""
+        """Force (N) and rate (N/s) at ``j step`` (s, ``j < points``), then ``offset + m
+        period`` (s, ``m < samples``); ``out``: optional (2, >= points + samples) array."""
         points, samples = int(points), int(samples)
         total = points + samples
         if out is None:
@@ -154,13 +137,11 @@ class ImpactResult:
         return out[0, :total], out[1, :total]
 
     def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
-        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, in one compiled
-        call on the Hertz-family dense output."""
+        """:meth:`pulse_samples` into ``out`` in one compiled call."""
         _k.pulse_force_slope(self._dense, step, points, offset, period, samples, out)
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
-        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
-        touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""
+        """Force (N) and its rate (N/s) at times ``t`` (s from first touch); 0 outside."""
         s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / self._dense.theta)
         out = np.empty_like(s)
         slope = np.empty_like(s)
@@ -168,8 +149,7 @@ class ImpactResult:
         return out, slope
 
     def _force_and_slope(self, s, out, slope) -> None:
-        """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
-        times ``s`` (s / theta): the dense output's, scaled to SI units."""
+        """Force (N) and rate (N/s) at times ``s`` (t / theta) into ``out``, ``slope``."""
         d = self._dense
         _k.force_slope_at(d, s, out, slope)
         out *= d.f_scale
@@ -187,9 +167,7 @@ _ROW_FIELDS = (
 
 
 def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> ImpactResult:
-    """The ``cls`` of a contact kernel's result ``r`` (a list of floats, fields ``R_*``),
-    integrated by ``method``, with the dense output ``dense``; an energy residual above
-    :data:`ENERGY_RESIDUAL_LIMIT` makes it a failure (``ENERGY_IMBALANCE``)."""
+    """The ``cls`` of kernel result ``r``; a residual above the limit makes it a failure."""
     status = int(r[_o.R_STATUS])
     residual = r[_o.R_ENERGY_RESIDUAL]
     message = _TINY_REBOUND if r[_o.R_TINY_REBOUND] else _MESSAGES.get(status, "Unknown status.")
@@ -208,8 +186,7 @@ def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> Imp
 
 
 def with_message(result: ImpactResult, message: str) -> ImpactResult:
-    """A copy of ``result`` (an :class:`ImpactResult`, of its own class) with another
-    ``message``."""
+    """A copy of ``result`` with another ``message``."""
     obj = object.__new__(type(result))
     d = {k: v for k, v in result.__dict__.items() if k not in ("time", "force")}
     d["message"] = message
@@ -218,9 +195,7 @@ def with_message(result: ImpactResult, message: str) -> ImpactResult:
 
 
 class ShellDense(NamedTuple):
-    """The dense output of a thin-shell contact (:mod:`.contact_kernels.shell`): its
-    history, the dimensionless ``law`` (``contact_kernels.shell.Shell``), the end of contact
-    ``s_contact`` and the scales (``theta``, s; ``f_scale``, N)."""
+    """Dense output of a thin-shell contact (scales ``theta`` s, ``f_scale`` N)."""
 
     hist: np.ndarray
     law: tuple
@@ -231,9 +206,7 @@ class ShellDense(NamedTuple):
 
 
 class ShellImpactResult(ImpactResult):
-    """An :class:`ImpactResult` of the thin-shell law (a
-    :class:`~synth.physics.scene.HollowBall`): the same fields, its pulse from the shell
-    kernel's dense output."""
+    """An :class:`ImpactResult` of the thin-shell law, its pulse from the shell kernel."""
 
     @property
     def exponent(self) -> float:
@@ -242,9 +215,8 @@ class ShellImpactResult(ImpactResult):
 
     @property
     def pulse_order(self) -> float:
-        """``q`` of the trapezoid rule's error ``C h^q`` on the pulse: 2 for the lossless
-        shell (the force rises like ``t``), 1 with the Kelvin-Voigt loss (the force starts
-        with a step ``A k_R v``)."""
+        """``q`` of the trapezoid rule's error: 2 lossless (force ~ ``t``), 1 with the
+        Kelvin-Voigt loss (a step ``A k_R v`` at first touch)."""
         return 1.0 if self._dense.law.a != 0.0 else 2.0
 
     def _sample_pulse(self):
@@ -260,8 +232,7 @@ class ShellImpactResult(ImpactResult):
         return times, forces
 
     def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
-        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, from the shell
-        kernel's dense output at the grid's times."""
+        """:meth:`pulse_samples` into ``out`` from the shell kernel's dense output."""
         total = points + samples
         s = np.empty(total)
         s[:points] = np.arange(points) * step
@@ -283,9 +254,7 @@ def _shell_force_at_end(d: ShellDense) -> float:
 
 
 def solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, local_tol, n_points) -> ShellImpactResult:
-    """One impact of the thin-shell ``law`` (checked values, SI units; docs/physics.md,
-    "Hollow balls"), integrated by :func:`.contact_kernels.shell.shell_impact` to the local
-    tolerance ``local_tol`` (the contact's ``rtol`` times its safety factor)."""
+    """One impact of the thin-shell ``law`` (SI) to the local tolerance ``local_tol``."""
     k0 = law.stiffness
     rR = law.reissner_stiffness / k0
     r, hist = _shell.shell_impact(

@@ -1,18 +1,8 @@
-"""Butcher tableau of the explicit Runge-Kutta method DOP853 (Dormand & Prince, order 8(5,3)).
-
-Coefficients as published in E. Hairer, S. P. Norsett and G. Wanner, "Solving Ordinary
-Differential Equations I: Nonstiff Problems", 2nd ed., Springer 1993, section II.5 (the
-code DOP853 of section II.10), and in the Fortran source ``dop853.f`` that accompanies
-the book (http://www.unige.ch/~hairer/software.html): its constants ``c2 .. c16``,
-``a21 .. a1615``, ``b1 .. b12``, ``bhh1 .. bhh3``, ``er1 .. er12`` and ``d41 .. d716``,
-each written as the shortest decimal of its float64 (the same numbers).
-
-* ``C``, ``A``: nodes and coupling coefficients of the 12 stages of a step, then of the
-  4 extra stages (rows 13-15, row 12 being ``B``) that the dense output of order 7 needs.
-* ``B``: weights of the 8th-order solution (row ``N_STAGES`` of ``A``: FSAL).
-* ``E3``, ``E5``: weights of the 3rd- and 5th-order error estimators (``B`` less
-  ``bhh``, and ``er``), combined as in ``dop853.f``.
-* ``D``: coefficients of the dense output polynomial (``d4* .. d7*``).
+"""Butcher tableau of DOP853 (Dormand & Prince, order 8(5,3)) as published in Hairer, Norsett &
+Wanner, "Solving Ordinary Differential Equations I", 2nd ed., Springer 1993, II.5 and II.10, and
+their ``dop853.f``, each the shortest decimal of its float64. ``C``, ``A``: 12 stages then the 4
+extra of the order-7 dense output; ``B``: 8th-order weights (FSAL); ``E3``, ``E5``: error
+estimators; ``D``: dense output coefficients.
 """
 
 import numpy as np

@@ -1,11 +1,8 @@
-"""Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance").
-
-The infinite thin plate's ``Z_inf = 8 sqrt(D rho h)`` N s/m (thesis eq. 2.34; Cremer, Heckl &
-Petersson, "Structure-Borne Sound", 3rd ed., section 5.3); the infinite Mindlin plate's ``Re Y``
-(docs/physics.md, "Thick plates (Mindlin)"); near free edges and corners the measured ratios
-(Eichler 1964, J. Acoust. Soc. Am. 36, 344: :data:`EDGE_RATIO`; the thesis' Table 3.4:
-:data:`CORNER_RATIO`), blended over the critical distance ``c_g tau / 2`` by
-:func:`admittance_at`.
+"""Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance"):
+the infinite thin plate's ``Z_inf = 8 sqrt(D rho h)`` N s/m (thesis eq. 2.34; Cremer, Heckl &
+Petersson, "Structure-Borne Sound", 3rd ed., section 5.3), the infinite Mindlin plate's, and
+near free edges and corners the measured ratios (Eichler 1964, J. Acoust. Soc. Am. 36, 344;
+thesis Table 3.4), blended over the critical distance ``c_g tau / 2``.
 """
 
 from __future__ import annotations
@@ -44,8 +41,7 @@ def corner_impedance(plate: Plate) -> float:
 
 
 def critical_distance(plate: Plate, contact_time: float) -> float:
-    """Distance from an edge within which the edge is felt, ``c_g tau / 2`` (m), ``c_g`` taken
-    at ``omega = pi / tau`` for the contact duration ``tau`` = ``contact_time`` (s)."""
+    """Distance (m) within which an edge is felt, ``c_g tau / 2`` at ``omega = pi / tau`` (s)."""
     tau = (
         contact_time
         if type(contact_time) is float and 0.0 < contact_time < math.inf
@@ -60,8 +56,7 @@ def _critical_distance(plate: Plate, tau: float) -> float:
 
 
 def edge_contact_time(plate: Plate, distance: float) -> float:
-    """The contact time (s) from which an edge at ``distance`` (m) is felt: where
-    :func:`critical_distance` reaches it, ``d^2 / (pi sqrt(D / rho h))``."""
+    """The contact time (s) from which an edge at ``distance`` (m) is felt."""
     wave = math.sqrt(plate.flexural_rigidity / plate.surface_density)
     return distance * distance / (math.pi * wave)
 
@@ -74,9 +69,9 @@ def _taper(d, dc):
 
 
 def point_admittance(plate: Plate, position: tuple[float, float], contact_time: float) -> float:
-    """Admittance ``beta`` (m/(N s)) at ``position`` (metres from a corner) for a pulse of
-    ``contact_time`` (s): ``1 / Z_inf`` beyond the critical distance from every edge, and
-    everywhere on simply supported and clamped plates (the thesis measured free edges only)."""
+    """Admittance (m/(N s)) at ``position`` (m) for a pulse of ``contact_time`` (s): ``1 /
+    Z_inf`` beyond the critical distance, and everywhere on simply supported and clamped plates
+    (the thesis measured free edges only)."""
     x, y = plate.check_position(position, "position")
     tau = checks.positive("contact_time", contact_time, "s")
     return admittance_at(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
@@ -85,8 +80,7 @@ def point_admittance(plate: Plate, position: tuple[float, float], contact_time: 
 def admittance_at(
     plate: Plate, x: float, y: float, contact_time: float, infinite_admittance: float
 ) -> float:
-    """:func:`point_admittance` at ``(x, y)`` (m) for ``contact_time`` (s) and ``1 / Z_inf`` =
-    ``infinite_admittance`` (m/(N s)), all checked: the contact solver's inner loop."""
+    """:func:`point_admittance` on checked values (m, s, m/(N s)): the solver's inner loop."""
     tau, beta_inf = contact_time, infinite_admittance
     if plate.boundary != "free":
         return beta_inf
@@ -100,8 +94,7 @@ def admittance_at(
     return beta_inf * (1.0 + (re - 1.0) * (sx + sy) + (rc - 2.0 * re + 1.0) * sx * sy)
 
 
-#: Mindlin's shear coefficient ``kappa`` (Reissner's 5/6; Mindlin's own pi^2/12 = 0.822
-#: differs by 1.3 %).
+#: Mindlin's shear coefficient ``kappa`` (Reissner's 5/6; Mindlin's pi^2/12 differs by 1.3 %).
 SHEAR_COEFFICIENT = 5.0 / 6.0
 
 
@@ -121,10 +114,9 @@ def _mindlin_constants(plate: Plate) -> tuple[float, float, float, float, float]
 
 
 def mindlin_wavenumbers(plate: Plate, omega):
-    """The roots ``s1 > s2`` (rad^2/m^2) in ``s = k^2`` of Mindlin's dispersion relation at
-    ``omega`` (rad/s), ``(s - omega^2 rho / (kappa G)) (D s - I omega^2) - rho h omega^2 = 0``
-    (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff 1975, ch. 8): ``s1`` the propagating wave,
-    ``s2 < 0`` evanescent below the thickness-shear cut-off; Kirchhoff's as ``omega h / c -> 0``."""
+    """Roots ``s1 > s2`` (rad^2/m^2) in ``s = k^2`` of Mindlin's dispersion relation at
+    ``omega`` (rad/s) (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff 1975, ch. 8): ``s1``
+    propagating, ``s2 < 0`` evanescent below the thickness-shear cut-off."""
     w2 = np.asarray(omega, dtype=float) ** 2
     D, rh, inertia, slow, _ = _mindlin_constants(plate)
     b = w2 * (inertia + D * slow)
@@ -134,11 +126,9 @@ def mindlin_wavenumbers(plate: Plate, omega):
 
 
 def mindlin_point_admittance(plate: Plate, frequency):
-    """``Re Y`` (m/(N s)) of the infinite Mindlin plate under a point force at ``frequency`` (Hz):
-    ``omega N(s1) / (4 D (s1 - s2))``, ``N(s) = 1 + (D s - I omega^2) / (kappa G h)``, the
-    residue of the propagating pole of the wavenumber integral; Kirchhoff's ``1 / (8 sqrt(D rho
-    h))`` at low frequency, rising with ``k h``. (``Im Y`` diverges under a true point force;
-    the contact law carries it.)"""
+    """``Re Y`` (m/(N s)) of the infinite Mindlin plate under a point force at ``frequency``
+    (Hz): the residue of the propagating pole, Kirchhoff's ``1 / (8 sqrt(D rho h))`` at low
+    frequency. (``Im Y`` diverges under a true point force; the contact law carries it.)"""
     f = np.asarray(frequency, dtype=float)
     if not np.all(np.isfinite(f) & (f > 0.0)):
         raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
@@ -151,8 +141,7 @@ def mindlin_point_admittance(plate: Plate, frequency):
 
 
 def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
-    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate, ``Re Y`` averaged over ``[low,
-    high]`` (Hz): an impact hammer's band-averaged measurement at the middle of a large plate."""
+    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate over ``[low, high]`` (Hz)."""
     from scipy.integrate import quad
 
     lo = checks.nonnegative("low", low, "Hz")
@@ -165,10 +154,8 @@ def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
 
 
 def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
-    """The flexural (lower) Mindlin angular frequency (rad/s) of ``k^2`` = ``wavenumber_squared``
-    (rad^2/m^2), the lower root of ``A omega^4 - B omega^2 + D s^2 = 0``, ``A = I rho / (kappa
-    G)``, ``B = D s rho / (kappa G) + I s + rho h``: for a simply supported mode, Mindlin's exact
-    frequency (Mindlin, Schacknow & Deresiewicz, J. Appl. Mech. 23 (1956) 430-436)."""
+    """Flexural Mindlin angular frequency (rad/s) at ``k^2`` (rad^2/m^2): exact for a simply
+    supported mode (Mindlin, Schacknow & Deresiewicz, J. Appl. Mech. 23 (1956) 430-436)."""
     s = np.asarray(wavenumber_squared, dtype=float)
     D, rh, inertia, slow, _ = _mindlin_constants(plate)
     a = inertia * slow
@@ -178,8 +165,8 @@ def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
 
 
 def mindlin_mass_factor(plate: Plate, wavenumber_squared, omega):
-    """A Mindlin mode's modal mass over Kirchhoff's at ``k^2`` (rad^2/m^2) and ``omega`` (rad/s):
-    the rotations ``psi = i k w / N(s)`` add ``1 + I s / (rho h N(s)^2)``."""
+    """A Mindlin mode's modal mass over Kirchhoff's at ``k^2`` (rad^2/m^2), ``omega`` (rad/s):
+    the rotations add ``1 + I s / (rho h N(s)^2)``."""
     s = np.asarray(wavenumber_squared, dtype=float)
     w = np.asarray(omega, dtype=float)
     D, rh, inertia, _, shear_stiffness = _mindlin_constants(plate)
@@ -189,8 +176,7 @@ def mindlin_mass_factor(plate: Plate, wavenumber_squared, omega):
 
 @dataclass(frozen=True)
 class WaveSpeeds:
-    """Bending-wave speeds at one frequency, m/s: ``phase = omega / k`` and ``group =
-    d omega / d k`` (the speed of a wave packet's energy)."""
+    """Bending-wave phase and group speeds at one frequency, m/s."""
 
     phase: float
     group: float
@@ -205,11 +191,7 @@ def kirchhoff_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
 
 
 def mindlin_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
-    """The Mindlin plate's flexural-wave speeds (m/s) at ``frequency`` (Hz): ``c = omega / k`` at
-    ``k^2 = s1``, and ``c_g = -(k / omega) (dP/ds) / (dP/d omega^2)`` by implicit
-    differentiation of the dispersion relation; below the thin plate's, tending to Kirchhoff's
-    as ``k h -> 0`` and to the slower of ``sqrt(kappa G / rho)`` and ``sqrt(D / I)`` at high
-    frequency."""
+    """The Mindlin plate's flexural-wave phase and group speeds (m/s) at ``frequency`` (Hz)."""
     f = checks.positive("frequency", frequency, "Hz")
     w = 2.0 * math.pi * f
     w2 = w * w

@@ -1,12 +1,11 @@
 """Materials: elastic constants, density and internal damping (docs/physics.md, "Materials").
 
-:data:`TABLE` is read from ``materials.toml`` beside this module, every row citing its source:
-the thesis' Table 3.1 (MDF boards, steel and glass balls) and handbook tables (Cremer, Heckl
-& Petersson 2005, Table 4.3; Bies, Hansen & Howard 2017, Table C.1, its lower loss factor;
-Hopkins 2007, Table A2, plate speeds ``c_L``; Mechel 2008; Vigran 2008; Norton & Karczub 2003;
-Ashby 2011; Leet & Ewing 1932 and Birch & Bancroft 1938 for granite). Loss factors are bending
-waves' at audio frequencies, the least certain column (Cremer et al. section 4.5.1; a row's
-``source`` names the books that disagree). Woods give the modulus along the grain."""
+:data:`TABLE` is read from ``materials.toml``, every row citing its source: the thesis' Table
+3.1 and handbook tables (Cremer, Heckl & Petersson 2005, Table 4.3; Bies, Hansen & Howard
+2017, Table C.1; Hopkins 2007, Table A2; Mechel 2008; Vigran 2008; Norton & Karczub 2003;
+Ashby 2011; Leet & Ewing 1932 and Birch & Bancroft 1938). Loss factors are bending waves' at
+audio frequencies, the least certain column (Cremer et al. section 4.5.1). Woods give the
+modulus along the grain."""
 
 from __future__ import annotations
 
@@ -19,10 +18,9 @@ import numpy as np
 from synth import checks
 from synth.errors import ParameterError
 
-#: Young's modulus a material may have, Pa (closed interval): from the softest solid
-#: elastomers, bottlebrush networks of order 100 Pa (Daniel et al., Nature Materials 15, 183
-#: (2016)), to diamond, 1.21 TPa (Klein & Cardinale, Diamond Relat. Mater. 2, 918 (1993)).
-#: Outside it a value is a typing error (a unit: GPa for Pa), not a solid.
+#: Young's modulus a material may have, Pa: from bottlebrush elastomers, ~100 Pa (Daniel et
+#: al., Nature Materials 15, 183 (2016)), to diamond, 1.21 TPa (Klein & Cardinale, Diamond
+#: Relat. Mater. 2, 918 (1993)); outside it a value is a unit error, not a solid.
 YOUNG_RANGE = (100.0, 1.21e12)
 
 #: Density a material may have, kg/m^3 (closed interval): from graphene aerogels, 0.16 (Sun,
@@ -42,8 +40,7 @@ def _closed(name: str, value, bounds: tuple[float, float], unit: str, what: str)
 
 @dataclass(frozen=True)
 class Rayleigh:
-    """Rayleigh damping, ``sigma = alpha/2 + beta omega^2 / 2``: ``alpha`` >= 0 (1/s), ``beta``
-    >= 0 (s)."""
+    """Rayleigh ``sigma = (alpha + beta omega^2) / 2``, ``alpha``, ``beta`` >= 0 (1/s, s)."""
 
     alpha: float
     beta: float
@@ -78,12 +75,11 @@ Damping = Rayleigh | LossFactor
 
 @dataclass(frozen=True)
 class Material:
-    """An elastic material, isotropic or transversely isotropic: ``name``; ``density`` in
-    :data:`DENSITY_RANGE`, kg/m^3; ``young`` in :data:`YOUNG_RANGE`, Pa; ``poisson`` in (-1,
-    0.5); ``damping`` of the bending modes (a plate needs one); ``source``, the citation;
-    ``transverse_shear`` ``G_t`` > 0 Pa, read by the Mindlin plate only (None: isotropic);
-    ``yield_stress`` ``Y`` > 0 Pa of a ductile material (a plastic contact holds ``2.8 Y``,
-    docs/physics.md, "Yield of the contact"; None: brittle or unpublished)."""
+    """An elastic material: ``name``; ``density`` (kg/m^3, :data:`DENSITY_RANGE`); ``young``
+    (Pa, :data:`YOUNG_RANGE`); ``poisson`` in (-1, 0.5); ``damping`` of the bending modes;
+    ``source``; ``transverse_shear`` ``G_t`` > 0 Pa for the Mindlin plate (None: isotropic);
+    ``yield_stress`` ``Y`` > 0 Pa of a ductile material (docs/physics.md, "Yield of the
+    contact"; None: brittle or unpublished)."""
 
     name: str
     density: float
@@ -159,8 +155,7 @@ def names() -> list[str]:
 
 
 def get(name: str) -> Material:
-    """The built-in material ``name`` (case-insensitive, or an alias); an unknown name raises
-    ``ParameterError`` suggesting the nearest."""
+    """The built-in material ``name`` (any case, or an alias), else ``ParameterError``."""
     if not isinstance(name, str):
         raise ParameterError(f"material={name!r} must be a material name (str) or a Material")
     key = name.strip().lower()
@@ -210,13 +205,10 @@ def table_markdown() -> str:
 
 @dataclass(frozen=True)
 class ContactSurface:
-    """A plate material's side of the contact where an isotropic half-space (the thesis' Hertz
-    model) is not what was measured: ``transverse_ratio`` ``E_t / E`` in (0, 1], the modulus
-    resisting the indentation over ``young`` (the plate's side isotropic with ``E_t`` and
-    ``nu``); and exactly one loss: ``dissipation`` ``mu`` >= 0 s/m of ``F = K delta^n (1 + mu
-    delta')`` (Hunt & Crossley, J. Appl. Mech. 42 (1975) 440-445) or ``viscous_time`` ``A`` >= 0
-    s of ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')`` (Kuwabara & Kono 1987;
-    Brilliantov et al. 1996); ``source``, what it was fitted on."""
+    """A plate material's measured side of the contact: ``transverse_ratio`` ``E_t / E`` in (0,
+    1], the modulus resisting indentation; and exactly one loss: ``dissipation`` ``mu`` >= 0
+    s/m (Hunt & Crossley, J. Appl. Mech. 42 (1975) 440-445) or ``viscous_time`` ``A`` >= 0 s
+    (Kuwabara & Kono 1987; Brilliantov et al. 1996); ``source``, what it was fitted on."""
 
     transverse_ratio: float
     dissipation: float = 0.0
@@ -242,10 +234,9 @@ class ContactSurface:
 
 
 #: MDF's contact surface, fitted on the thesis' 18 mm board only (docs/physics.md, "Contact
-#: losses"; validation.surface.surface_fit): ``E_t / E`` on its five first-impact contact
-#: times (Table 3.3, each ball with its 1 g accelerometer) and ``A`` on the restitution 0.76
-#: of the 10 mm steel ball at 1.4 m/s (section 3.2), modal plate at the middle. The 12 and
-#: 6 mm boards use it unchanged (``synth bench thesis`` prints fit and prediction errors).
+#: losses"): ``E_t / E`` on its five first-impact contact times (Table 3.3) and ``A`` on the
+#: restitution 0.76 of the 10 mm steel ball at 1.4 m/s (section 3.2). The 12 and 6 mm boards
+#: use it unchanged (``synth bench thesis`` prints fit and prediction errors).
 MDF_SURFACE = ContactSurface(
     transverse_ratio=0.1814,
     viscous_time=7.702e-6,
@@ -261,8 +252,7 @@ SURFACES: dict[str, ContactSurface] = dict.fromkeys(("mdf-18", "mdf-12", "mdf-6"
 
 
 def contact_surface(material: Material) -> ContactSurface:
-    """The fitted :class:`ContactSurface` of a table material (whatever its transverse shear),
-    else ``ParameterError`` naming those that have one."""
+    """The fitted :class:`ContactSurface` of a table material, else ``ParameterError``."""
     surface = SURFACES.get(getattr(material, "name", None))
     if (
         surface is None
@@ -287,9 +277,7 @@ def has_contact_surface(material: Material) -> bool:
 
 
 def with_transverse_shear(material: Material) -> Material:
-    """``material`` with ``G_t = E_t / (2 (1 + nu))``, ``E_t = transverse_ratio E`` (Pa) of its
-    fitted surface, for the Mindlin plate (docs/physics.md, "Thick plates (Mindlin)"): no
-    parameter added to the fitted two."""
+    """``material`` with ``G_t`` (Pa) of its fitted surface, for the Mindlin plate."""
     surface = contact_surface(material)
     through_thickness = surface.transverse_ratio * material.young
     return replace(material, transverse_shear=through_thickness / (2.0 * (1.0 + material.poisson)))

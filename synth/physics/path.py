@@ -1,10 +1,8 @@
 """The path of a ball released with a horizontal velocity (docs/rolling.md, "The ball's path"):
-bounces along the line of its velocity (the impact solver's, strung by flights as
-:mod:`synth.physics.bounces`), the contact point gripping at each impact (``v' = (5 v + 2 R w) /
-7``; Garwin, Am. J. Phys. 37, 88 (1969); Cross, Am. J. Phys. 70, 1093 (2002)), then rolling
-(:func:`synth.physics.rolling.roll` over the roughness of :class:`synth.physics.scene.Rolling`)
-slowed by the roughness' work and Coulomb's rolling resistance ``C_rr m g`` (Cross, Am. J. Phys.
-84, 221 (2016)) until it stops, leaves the plate or the time runs out.
+bounces along its line, the contact point gripping at each impact (``v' = (5 v + 2 R w) / 7``;
+Garwin, Am. J. Phys. 37, 88 (1969); Cross, Am. J. Phys. 70, 1093 (2002)), then rolling slowed
+by the roughness' work and rolling resistance ``C_rr m g`` (Cross, Am. J. Phys. 84, 221 (2016))
+until it stops, leaves the plate or time runs out.
 """
 
 from __future__ import annotations
@@ -37,10 +35,8 @@ CHUNK_BLOCKS = 256
 
 @dataclass(frozen=True, eq=False)
 class RollingPart:
-    """The rolling of a :class:`BallPath` on the audio's grid of ``samplerate`` (Hz) from ``start``
-    (s from the release): per sample period the mean ``force`` on the plate (N), the touching
-    point's ``contact_coordinate`` along the line (m from its origin) and the ``speed`` (m/s);
-    ``final_force`` after the end (N: 0 off the plate, else ``m g``); ``flights``: micro-bounces."""
+    """The rolling on the grid of ``samplerate`` (Hz) from ``start`` (s): per period ``force``
+    (N), ``contact_coordinate`` (m) and ``speed`` (m/s); ``final_force`` (N); ``flights``."""
 
     samplerate: int
     start: float
@@ -59,9 +55,7 @@ class RollingPart:
 
 @dataclass(frozen=True)
 class RollingEnergy:
-    """Where the rolling's energy went, J: ``initial - final = contact_loss + plate_energy +
-    resistance_work`` up to the solver's error, the energies the kinetic ``(7/10) m v^2`` plus
-    the vertical (:class:`synth.physics.rolling.EnergyBalance`)."""
+    """Where the rolling's energy went (J): ``initial - final`` = loss + plate + resistance."""
 
     initial: float
     final: float
@@ -79,11 +73,9 @@ class RollingEnergy:
 
 @dataclass(frozen=True, eq=False)
 class BallPath:
-    """A ball's path: the ``impacts`` (times from the release; ``stop_reason`` the rule that
-    started the rolling, or "max-impacts") at ``impact_points`` (I, 2) (m from the plate's
-    corner) along ``origin + s direction`` (m, unit ``direction``); ``rolling_speed`` after the
-    first grip (m/s); the ``rolling`` (None if the ball left or ran out of time first); the
-    ``end`` (one of :data:`ENDS`), its ``end_time`` (s from the release) and ``end_point`` (m)."""
+    """A ball's path: ``impacts`` at ``impact_points`` (I, 2; m) along ``origin + s direction``
+    (m); ``rolling_speed`` (m/s); ``rolling`` (None if the ball left or ran out of time); the
+    ``end`` (:data:`ENDS`), ``end_time`` (s) and ``end_point`` (m)."""
 
     impacts: BounceSequence
     impact_points: np.ndarray
@@ -97,8 +89,8 @@ class BallPath:
 
 
 def grip(speed: float, spin: float, radius: float) -> float:
-    """Horizontal speed (m/s) after an impact that brings the contact point to rest, ``(5 v +
-    2 R w) / 7`` for a solid sphere of ``radius`` R (m) at ``speed`` v (m/s), ``spin`` w (rad/s)."""
+    """Horizontal speed (m/s) after a gripping impact, ``(5 v + 2 R w) / 7``: ``radius`` R (m),
+    ``speed`` v (m/s), ``spin`` w (rad/s)."""
     return (speed + SPHERE_INERTIA * radius * spin) / (1.0 + SPHERE_INERTIA)
 
 
@@ -118,11 +110,9 @@ def edge_distance(plate, origin, direction) -> float:
 
 @dataclass(frozen=True, eq=False)
 class PathBounces:
-    """The bounces of a ball released with a horizontal velocity, up to its rolling: the
-    ``impacts`` (``stop_reason`` "settled" or "flight-shorter-than-contact": it rolls next)
-    at ``points`` (m), the line's ``origin`` (m) and unit ``direction``, the ``speed`` after
-    the grip (m/s), the ``edge``'s distance along the line (m), when (s) and where (m along
-    the line) the last contact ended, and its ``rebound_speed`` (m/s; None: no separation)."""
+    """The bounces up to the rolling: ``impacts`` at ``points`` (m), line ``origin`` (m) and
+    unit ``direction``, ``speed`` after the grip (m/s), ``edge`` distance (m), the last
+    contact's end (s, m) and ``rebound_speed`` (m/s; None: no separation)."""
 
     impacts: BounceSequence
     points: np.ndarray
@@ -150,8 +140,7 @@ def _along(origin, direction, s: float) -> tuple[float, float]:
 
 
 def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
-    """The bounces of ``scene`` (which has a ``velocity``) along its line until the ball
-    rolls, flies off the plate, or the next impact would come after ``max_duration`` s."""
+    """The bounces of ``scene`` until it rolls, leaves the plate or passes ``max_duration`` (s)."""
     if not isinstance(scene, Scene) or not scene.moving:
         raise ParameterError(f"scene={scene!r} must be a Scene with a non-zero velocity")
     ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact
@@ -210,9 +199,8 @@ def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
 def simulate_path(
     scene: Scene, *, samplerate: int, time_origin: float = 0.0, max_duration: float = 30.0
 ) -> BallPath:
-    """The :class:`BallPath` of ``scene`` (with ``velocity`` and ``rolling``), the rolling on
-    the grid of ``samplerate`` (Hz) through ``time_origin`` (s from the release), followed to
-    ``max_duration`` (s from the release)."""
+    """The :class:`BallPath` of ``scene``, the rolling on the grid of ``samplerate`` (Hz)
+    through ``time_origin`` (s), followed to ``max_duration`` (s from the release)."""
     b = path_bounces(scene, max_duration=max_duration)
     if not b.rolls:
         part, end, end_time, end_point = None, b.impacts.stop_reason, b.separation_time, None
@@ -240,8 +228,7 @@ def _profile(rolling, length):
 
 
 def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
-    """The rolling after ``bounces``: the :class:`RollingPart`, the end, its time (s) and the
-    touching point's path coordinate (m)."""
+    """The rolling after ``bounces``: its part, end, time (s) and coordinate (m)."""
     ball, plate, g, c, rolling = (
         scene.ball,
         scene.plate,
@@ -331,8 +318,7 @@ _ENVELOPES_LOCK = threading.Lock()
 
 
 def _envelope(rolling, length, radius):
-    """:func:`make_envelope`, kept for the next calls with the same arguments (a seeded
-    profile: a pure function of them) within :data:`ENVELOPE_CACHE_SAMPLES` samples."""
+    """:func:`make_envelope`, cached (a seeded profile is a pure function of its arguments)."""
     key = (rolling.rms_height, rolling.correlation_length, rolling.hurst, rolling.seed,
            rolling.spacing, float(length), float(radius))  # fmt: skip
     with _ENVELOPES_LOCK:
@@ -349,16 +335,13 @@ def _envelope(rolling, length, radius):
 
 
 def make_envelope(rolling, length, radius):
-    """The contact envelope of a ball of ``radius`` (m) on the profile of ``rolling``
-    (:class:`synth.physics.scene.Rolling`) along ``length`` m of path, made afresh."""
+    """The contact envelope of a ball of ``radius`` (m) along ``length`` m, made afresh."""
     return surface.contact_envelope(_profile(rolling, length), radius)
 
 
 def _envelope_ahead(rolling, radius, s0, s_edge):
-    """The contact envelope from a ball ``radius`` (m) behind the centre's start ``s0`` to a
-    radius beyond the edge at ``s_edge`` (m along the path), the path coordinate (m) of its
-    first sample, and the centre's last coordinate on it whose touching point is on the
-    plate (m)."""
+    """The envelope from a ``radius`` (m) behind ``s0`` to beyond the edge at ``s_edge`` (m),
+    its first sample's coordinate (m) and the last centre coordinate on the plate (m)."""
     behind = s0 - radius
     length = s_edge - behind + radius
     if rolling.spacing * 4 > length:
@@ -377,6 +360,5 @@ def _envelope_ahead(rolling, radius, s0, s_edge):
 
 
 def c_rr_deceleration(resistance: float, gravity: float) -> float:
-    """The deceleration (m/s^2) of a rolling solid sphere by Coulomb's rolling resistance
-    ``C_rr m g``: ``d((7/10) m v^2)/dt = -C_rr m g v``, so ``dv/dt = -(5/7) C_rr g``."""
+    """Deceleration (m/s^2) of a rolling solid sphere by ``C_rr m g``: ``-(5/7) C_rr g``."""
     return resistance * gravity / (2.0 * ROLLING_ENERGY)

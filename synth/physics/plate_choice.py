@@ -1,14 +1,10 @@
-"""Where the finite plate's modes enter the contact: ``contact.plate = "auto"``
-(docs/physics.md, "Plate impedance" and "Plate modes").
+"""Where the finite plate's modes enter the contact, ``contact.plate = "auto"`` (docs/physics.md,
+"Plate impedance" and "Plate modes").
 
-Until a wave reflected by an edge returns, the finite plate moves as the infinite one. A
-flexural wave (group speed ``2 sqrt(omega) (D / (rho h))^(1/4)``, Cremer, Heckl & Petersson,
-section 3.7) from an edge at ``d`` is back within the contact time above ``omega_d``
-(:func:`return_frequency`); the share ``s`` of the first pulse's energy above it bounds the
-change of the plate's energy, blended as in :func:`synth.physics.impedance.admittance_at`,
-``Delta(e^2) <= eps [(r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y]`` (``eps`` the plate's
-share of the kinetic energy), ``Delta e <= Delta(e^2) / (2 e)``: above :data:`TOLERANCE` the
-modes enter the contact."""
+Until a wave reflected by an edge returns, the finite plate moves as the infinite one. The
+share of the first pulse's energy above the frequency whose reflection returns within the
+contact time bounds the change of restitution (flexural group speed: Cremer, Heckl & Petersson,
+section 3.7): above :data:`TOLERANCE` the modes enter the contact."""
 
 from __future__ import annotations
 
@@ -20,21 +16,18 @@ import numpy as np
 
 from synth.physics import impedance
 
-#: The change of the first impact's e (and relative change of its tau) below which the modal
-#: contact is not used: its own accuracy against the impedance model at the middle of a large
-#: plate (tests/test_modal_contact.py: within 1e-3).
+#: Change of the first impact's e (and relative tau) below which the modal contact is not used:
+#: its own accuracy against the impedance model (within 1e-3).
 TOLERANCE = 1e-3
-#: Samples of the force pulse for its energy spectrum, and the length (a power of two) of the
-#: zero-padded transform: bins of ``1 / (8 tau)`` and pulses resolved to 1/2048 of ``tau``.
+#: Pulse samples and zero-padded transform length: bins of ``1 / (8 tau)``.
 PULSE_SAMPLES = 4096
 TRANSFORM_LENGTH = 1 << 15
 
 
 @dataclass(frozen=True)
 class PlateChoice:
-    """The plate in the contact of one scene: ``plate`` ("impedance" or "modal"), the ``bound`` on
-    the change of e, the ``distances`` to the nearest edges along x and y (m) and the lowest
-    ``frequencies`` whose reflections are back within the contact (Hz)."""
+    """The plate in one scene's contact: ``plate``, the ``bound`` on the change of e, the nearest
+    edges' ``distances`` (m) and the lowest returning ``frequencies`` (Hz)."""
 
     plate: str
     bound: float
@@ -43,8 +36,7 @@ class PlateChoice:
 
 
 def energy_shares_above(result, omegas) -> list[float]:
-    """The shares of an impact's pulse energy ``Int |F(omega)|^2`` above each of ``omegas``
-    (rad/s), from one zero-padded FFT of :data:`PULSE_SAMPLES` samples over the contact."""
+    """Shares of the pulse energy above each of ``omegas`` (rad/s), from one zero-padded FFT."""
     tau = result.separation_time
     t = np.linspace(0.0, tau, PULSE_SAMPLES)
     f = np.asarray(result.force_at(t), dtype=float)
@@ -58,17 +50,15 @@ def energy_shares_above(result, omegas) -> list[float]:
 
 
 def return_frequency(plate, distance: float, contact_time: float) -> float:
-    """The lowest angular frequency (rad/s) whose flexural wave, reflected by an edge at
-    ``distance`` (m), is back within ``contact_time`` (s): ``(d / (kappa tau))^2``, ``kappa = (D /
-    (rho h))^(1/4)``."""
+    """Lowest angular frequency (rad/s) whose flexural wave reflected at ``distance`` (m) is
+    back within ``contact_time`` (s): ``(d / (kappa tau))^2``, ``kappa = (D / (rho h))^(1/4)``."""
     kappa = (plate.flexural_rigidity / plate.surface_density) ** 0.25
     return (distance / (kappa * contact_time)) ** 2
 
 
 def choose_plate(result, plate, position, ball_mass: float, speed: float) -> PlateChoice:
-    """The :class:`PlateChoice` for the impedance plate's first impact ``result`` at ``speed``
-    (m/s) of a ball of ``ball_mass`` (kg) at ``position`` (m); for a ball that settles the bound
-    is on the plate's share of the energy."""
+    """The :class:`PlateChoice` for the first impact ``result`` at ``speed`` (m/s), ``ball_mass``
+    (kg), ``position`` (m); for a settling ball the bound is on the plate's energy share."""
     x, y = plate.check_position(position, "position")
     dx = min(x, plate.length - x)
     dy = min(y, plate.width - y)
@@ -91,8 +81,7 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
 
 
 def scene_plate(scene) -> PlateChoice:
-    """The plate in a scene's contact: ``contact.plate`` where it names one, the impedance plate
-    for the thin-shell law, else :func:`choose_plate` on the first impact."""
+    """The plate in a scene's contact: as named, impedance for the shell law, else chosen."""
     from synth.physics.scene import Scene, check_type
 
     check_type("scene", scene, Scene)

@@ -1,12 +1,7 @@
-"""A ball rolling at an imposed horizontal speed over a plate's rough surface (docs/rolling.md).
-
-Vertically a free body under gravity, pressed by the impacts' contact law
-(:func:`synth.physics.contact_law.contact_parameters`) against the profile's envelope
-(:func:`synth.physics.surface.contact_envelope`) on a rigid plate or on the plate's admittance;
-contact is lost where the surface falls away faster than gravity lets the ball follow, and the
-landings are impacts of the same equations (:mod:`synth.physics.rolling_kernels`). Left out
-(docs/rolling.md, "Limits"): the rolling resistance (the speed is imposed), the tilt of the
-contact normal, the profile's curvature in the Hertz constant, and the ball's rotation.
+"""A ball rolling at an imposed horizontal speed over a plate's rough surface (docs/rolling.md):
+vertically a free body pressed by the impacts' contact law against the profile's envelope, on a
+rigid plate or its admittance. Left out (docs/rolling.md, "Limits"): rolling resistance, the
+tilt of the contact normal, the profile's curvature in the Hertz constant, the ball's rotation.
 """
 
 from __future__ import annotations
@@ -42,13 +37,9 @@ _MESSAGES = {
 
 @dataclass(frozen=True)
 class EnergyBalance:
-    """The ball's and its contact's mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) /
-    (n+1)`` at the start and the end (J, potential from the plate's plane) and where the
-    difference went (J): the contact's loss ``Int (F - K delta^n) delta' dt``, into the plate
-    ``Int beta F^2 dt``, the horizontal drive's work ``Int F e'(s) v dt`` and ``Int |F e'(s) v|
-    dt``. ``residual``: ``|final - initial + loss_work + plate_energy - drive_work|`` (0 for the
-    exact solution) over the largest of ``gross_drive_work``, ``loss_work + plate_energy``,
-    ``|final - initial|`` and ``m g delta_static``."""
+    """Mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` at start and end (J) and
+    where the difference went (J): contact loss, plate, the drive's work and its gross.
+    ``residual``: the balance's error over the largest of those terms and ``m g delta_static``."""
 
     initial: float
     final: float
@@ -61,9 +52,8 @@ class EnergyBalance:
 
 @dataclass(frozen=True, eq=False)
 class RollingState:
-    """Where a rolling ended, to continue from (:func:`roll`'s ``state``), or a ball above the
-    surface (:meth:`at`): ``vector`` the integrator's read-only state (SI;
-    :mod:`synth.physics.rolling_kernels`' components), ``step`` its next step, s (None: chosen)."""
+    """Where a rolling ended, to continue from, or a ball above the surface: ``vector`` the
+    integrator's read-only state (SI), ``step`` its next step, s (None: chosen)."""
 
     vector: np.ndarray
     step: float | None
@@ -77,8 +67,8 @@ class RollingState:
         height: float,
         vertical_velocity: float,
     ) -> RollingState:
-        """The ball over ``path_position`` (m), its lowest point ``height`` (m) above the envelope
-        (negative: pressed in), moving up at ``vertical_velocity`` (m/s), the plate at rest."""
+        """The ball over ``path_position`` (m), its lowest point ``height`` (m) above the envelope,
+        moving up at ``vertical_velocity`` (m/s), the plate at rest."""
         check_type("envelope", envelope, ContactEnvelope)
         s = checks.in_range(
             "path_position", path_position, 0.0, envelope.length, "metres",
@@ -104,13 +94,11 @@ class RollingState:
 
 @dataclass(frozen=True, eq=False)
 class RollingContact:
-    """A rolling ball's contact, sampled at ``samplerate`` (Hz; sample ``j`` covers ``[j, j + 1) /
-    samplerate`` s). Per sample period (N,): the mean ``force`` on the plate (N), the centre's
-    ``path_position`` mid-period (m), the touching point's ``contact_coordinate`` on the path
-    (m) and ``contact_point`` (N, 2) on the plate (m), the least ``min_penetration`` at the
-    steps' ends (m; <= 0: off the plate), the ``speed`` (m/s). ``flights``: losses of contact;
-    ``admittance`` ``beta`` (m/(N s)); ``static_penetration`` ``(m g / K)^(1/n)`` (m, the error
-    control's scale); ``status`` 0 or a failure (``message``); ``final_state`` to continue from."""
+    """A rolling ball's contact per sample period at ``samplerate`` (Hz): mean ``force`` (N),
+    ``path_position`` (m), ``contact_coordinate`` (m), ``contact_point`` (N, 2; m), least
+    ``min_penetration`` (m; <= 0: off the plate), ``speed`` (m/s); ``flights``; ``admittance``
+    (m/(N s)); ``static_penetration`` ``(m g / K)^(1/n)`` (m); ``status``, ``message``,
+    ``final_state``."""
 
     samplerate: int
     force: np.ndarray
@@ -141,8 +129,7 @@ class RollingContact:
 
     @property
     def mean_drag(self) -> float:
-        """Mean horizontal force the contact opposes to the ball's motion, N: the drive's
-        work per metre of path (NaN if the ball did not move)."""
+        """Mean horizontal force opposing the motion, N (NaN if the ball did not move)."""
         distance = float(np.sum(self.speed)) / self.samplerate
         return self.energy.drive_work / distance if distance > 0.0 else math.nan
 
@@ -168,23 +155,19 @@ def roll(
     state: RollingState | None = None,
     **options,
 ) -> RollingContact:
-    """Roll ``ball`` over ``plate`` along the path of ``envelope`` (made with ``ball.radius``).
-
-    ``speed``: the centre's horizontal speed, m/s (>= 0), one for ``duration`` (s, at most
-    :data:`MAX_DURATION`) or one per sample period of ``samplerate`` (Hz). ``origin``: the path's
-    coordinate 0 on the plate, m from its corner. ``start``: the centre's path coordinate at time
-    0, m (default 0: pressed with ``m (g + v^2 e''(s0))``, its penetration steady, as a ball rolled
-    there slowly); or ``state``: an earlier rolling's ``final_state`` (consecutive calls give the
-    bits of one call) or :meth:`RollingState.at`. ``options``: :meth:`Roller.over`'s."""
+    """Roll ``ball`` over ``plate`` along ``envelope`` (made with ``ball.radius``). ``speed``:
+    m/s (>= 0), one for ``duration`` (s, at most :data:`MAX_DURATION`) or one per sample period
+    of ``samplerate`` (Hz). ``origin``: the path's 0 on the plate, m. ``start``: the centre's
+    path coordinate at time 0, m (pressed with ``m (g + v^2 e''(s0))``, as a ball rolled there
+    slowly); or ``state`` to continue (consecutive calls give the bits of one call).
+    ``options``: :meth:`Roller.over`'s."""
     roller = Roller.over(ball, plate, envelope, samplerate=samplerate, origin=origin, **options)
     return roller.roll(speed, duration=duration, start=start, state=state)
 
 
 @dataclass(frozen=True, eq=False)
 class Roller:
-    """:func:`roll`'s arguments, checked and worked out once (:meth:`over`) for a rolling solved in
-    many consecutive calls (:meth:`roll`; the path's blocks call the kernel with
-    :attr:`constants` and :meth:`integrator_start`): SI values, unit ``direction``."""
+    """:func:`roll`'s arguments checked once, for a rolling solved in many calls (SI)."""
 
     plate: Plate
     mass: float
@@ -215,15 +198,10 @@ class Roller:
         landing_speed: float = 1.0,
         **contact_options,
     ) -> Roller:
-        """The :class:`Roller` of :func:`roll`'s arguments. ``direction``: the path's direction on
-        the plate (normalised here). ``contact`` and ``contact_options``: the law
-        (:func:`synth.physics.contact_law.contact_parameters`). ``admittance``: the plate's at
-        the contact, m/(N s) (0: rigid; default ``1 / Z_inf``). ``gravity``: m/s^2. ``rtol`` in
-        [1e-12, 1e-2]: the local relative tolerance on the penetration (relative to the static
-        one) and the vertical speed. ``landing_speed`` (m/s): the fastest landing whose contact a
-        step cannot miss, a step being at most half the elastic contact's shortest duration at
-        that speed, ``2 delta_max / u``, ``delta_max = ((n + 1) m u^2 / (2 K))^(1/(n+1))``, and
-        at most a sample period."""
+        """The :class:`Roller` of :func:`roll`'s arguments. ``admittance``: m/(N s) (0: rigid;
+        default ``1 / Z_inf``); ``gravity``: m/s^2; ``rtol`` in [1e-12, 1e-2] on penetration and
+        vertical speed; ``landing_speed`` (m/s): the fastest landing a step cannot miss (a step
+        at most half its elastic contact, ``2 delta_max / u``, and a sample period)."""
         check_type("ball", ball, Ball)
         check_type("plate", plate, Plate)
         check_type("envelope", envelope, ContactEnvelope)
@@ -287,8 +265,7 @@ class Roller:
 
     @functools.cached_property
     def constants(self) -> _k.Constants:
-        """The kernels' :class:`synth.physics.rolling_kernels.Constants` (a path calls them per
-        block)."""
+        """The kernels' :class:`synth.physics.rolling_kernels.Constants`."""
         law = self.law
         return _k.Constants(
             self.mass, law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time,
@@ -302,10 +279,8 @@ class Roller:
         return RollingState(read_only(y), float(h))
 
     def integrator_start(self, speed: float, start: float, state: RollingState | None):
-        """The state vector (new) and first step (s) from ``state`` or at ``start`` (m) and
-        ``speed`` (m/s): pressed with ``F0 = m (g + v^2 e''(s0))`` (:func:`roll`), its
-        penetration ``(F0 / K)^(1/n)`` steady (the plate at ``-beta F0``), touching if ``F0 <=
-        0``."""
+        """State vector and first step (s) from ``state`` or at ``start`` (m), ``speed`` (m/s):
+        pressed with ``F0 = m (g + v^2 e''(s0))`` in steady penetration, touching if ``F0 <= 0``."""
         m, g, beta = self.mass, self.gravity, self.admittance
         first = min(0.1 * math.sqrt(self.static_penetration / g), 1.0 / self.samplerate)
         if state is not None:
@@ -322,9 +297,7 @@ class Roller:
         return y, first
 
     def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
-        """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
-        :attr:`RollingContact.contact_coordinate`
-        (:func:`synth.physics.rolling_kernels.touching_points`)."""
+        """The touching points' path coordinates (m) of the centre at ``centres`` (m)."""
         env = self.envelope
         centres = np.ascontiguousarray(centres, dtype=float)
         out = np.empty_like(centres)
@@ -337,9 +310,8 @@ class Roller:
         return np.column_stack((ox + ux * coordinates, oy + uy * coordinates))
 
     def check_reach(self, first: float, last: float) -> None:
-        """``ParameterError`` unless the touching points of the centre between the path
-        coordinates ``first <= last`` (m) all lie on the (convex) plate: piecewise linear in the
-        centre, their extremes are at the ends or at the envelope's samples between them."""
+        """``ParameterError`` unless the touching points between ``first <= last`` (m) all lie
+        on the convex plate: piecewise linear, their extremes are at the ends or samples."""
         env = self.envelope
         i0 = int(math.ceil(first / env.spacing))
         i1 = int(math.floor(last / env.spacing))
@@ -358,8 +330,7 @@ class Roller:
             )
 
     def mechanical_energy(self, state: RollingState) -> float:
-        """``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` (J) of the ball and its contact in
-        ``state`` (as :attr:`EnergyBalance.initial`)."""
+        """Mechanical energy (J) of the ball and its contact in ``state``."""
         y, m, n = state.vector, self.mass, self.law.exponent
         e, _, _ = envelope_at(self.envelope.coefficients, self.envelope.spacing, y[_k.S])
         delta = e - y[_k.Z]
@@ -411,8 +382,7 @@ def status_message(status: int) -> str:
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
-    """The speed of every sample period (m/s), from a single speed and a duration (s) or
-    an array of speeds."""
+    """The speed of every sample period (m/s), from one speed and a duration (s) or an array."""
     if np.ndim(speed) == 0:
         v = checks.nonnegative("speed", speed, "m/s")
         if duration is None:
@@ -432,8 +402,7 @@ def _speeds(speed, duration, fs) -> np.ndarray:
 
 @dataclass(frozen=True)
 class LossOfContactSpeed:
-    """The speed (m/s) at which a rolling ball starts to leave the surface, the middle of the
-    bracket ``low`` (stayed on) to ``high`` (left); ``rolls`` solved; ``success`` if narrowed."""
+    """The speed (m/s) at which a rolling ball leaves the surface: the bracket's middle."""
 
     speed: float
     low: float
@@ -446,11 +415,9 @@ class LossOfContactSpeed:
 def loss_of_contact_speed(
     roller: Roller, *, start: float, stop: float, low: float, high: float, tolerance: float = 1e-3
 ) -> LossOfContactSpeed:
-    """The lowest speed (m/s) at which the ball of ``roller`` (:meth:`Roller.over`) rolling from
-    ``start`` to ``stop`` (path coordinates, m) leaves the surface (a step's end off it), by
-    bisection between ``low`` (stays on) and ``high`` (leaves) to the relative ``tolerance`` in
-    (0, 0.1], each speed a :meth:`Roller.roll`: the thesis' question (section 6.2). On a random
-    surface the change may happen more than once; the bracket then holds one of them."""
+    """The lowest speed (m/s) at which the ball rolling from ``start`` to ``stop`` (m) leaves the
+    surface (the thesis, section 6.2), by bisection between ``low`` and ``high`` to the relative
+    ``tolerance`` in (0, 0.1]. A random surface may change more than once; the bracket holds one."""
     check_type("roller", roller, Roller)
     v_lo = checks.positive("low", low, "m/s")
     v_hi = checks.positive("high", high, "m/s")

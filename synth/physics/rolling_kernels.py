@@ -1,12 +1,7 @@
-"""numba kernels of the rolling contact (private to :mod:`synth.physics.rolling`; the equations:
-docs/rolling.md, "Rolling contact").
-
-With the envelope ``e(s)``, ``delta = e(s) - z``, ``w = e'(s) v - v_y``, ``F = K force(delta, w,
-beta K, n, mu, (3/2) A)`` (the impact solver's law, ``contact_kernels.equations.force``), ``z' = v_y
-+ beta F``, ``v_y' = F / m - g``, ``u' = -beta F``, with the impulse and the energy balance's
-quadratures carried along. Integrator: Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19
-(1980); Hairer, Norsett & Wanner, "Solving ODEs I", II.5), steps ending on every sample boundary; a
-flight is a parabola solved in closed form (:func:`flight`).
+"""numba kernels of the rolling contact (docs/rolling.md, "Rolling contact"): the impact solver's
+force law, integrated by Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19 (1980);
+Hairer, Norsett & Wanner, "Solving ODEs I", II.5) with steps ending on every sample boundary;
+a flight is a parabola in closed form.
 
 numba's cache keys these kernels on this file only: after editing
 ``contact_kernels/equations.py`` or ``surface.py``, clear ``synth/physics/__pycache__``.
@@ -26,10 +21,9 @@ force = equations.force
 
 
 class Constants(NamedTuple):
-    """A rolling's constants (SI): the ball's mass ``m`` (kg), the law's ``K``, ``n``, ``mu``
-    and ``b = (3/2) A`` (s), the plate's admittance ``beta`` (m/(N s)), gravity ``g`` (m/s^2),
-    the ``samplerate`` (Hz), the relative tolerance ``rtol``, the static penetration
-    ``delta_ref`` (m, the error's scale) and the largest step ``h_max`` (s)."""
+    """A rolling's constants: mass ``m`` (kg), the law's ``K``, ``n``, ``mu`` and ``b = (3/2)
+    A`` (s), admittance ``beta`` (m/(N s)), ``g`` (m/s^2), ``samplerate`` (Hz), ``rtol``, the
+    static penetration ``delta_ref`` (m) and the largest step ``h_max`` (s)."""
 
     m: float
     K: float
@@ -45,9 +39,8 @@ class Constants(NamedTuple):
 
 
 class Drive(NamedTuple):
-    """A path's rolling (:func:`roll_blocks`): the speed's fall ``decel`` (m/s^2) and the periods
-    of a ``block``, the centre's last coordinate ``x_end`` (m), the ``kinetic_mass`` (kg: the
-    kinetic energy over ``v^2``) and the rolling resistance's force (N)."""
+    """A path's rolling: ``decel`` (m/s^2), periods per ``block``, ``x_end`` (m),
+    ``kinetic_mass`` (kg: kinetic energy over ``v^2``), rolling resistance (N)."""
 
     decel: float
     block: int
@@ -56,8 +49,7 @@ class Drive(NamedTuple):
     resistance_force: float
 
 
-#: Most integration steps per sample period before the offline solver gives up (a contact
-#: resolved at the tolerance asks for a few per period).
+#: Most integration steps per sample period before the offline solver gives up.
 MAX_STEPS_PER_SAMPLE = 2000
 
 # Status codes.
@@ -78,8 +70,7 @@ A61, A62, A63, A64, A65 = (
     9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
 )  # fmt: skip
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
-#: An error (over the tolerance) below which the step grows by the largest factor, 5
-#: (``(0.9 / 5)^5 = 1.9e-4``).
+#: Error over tolerance below which the step grows by the largest factor, 5 (``(0.9/5)^5``).
 TINY_ERROR = 1e-4
 E1, E3, E4, E5, E6, E7 = (
     71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
@@ -89,10 +80,8 @@ E1, E3, E4, E5, E6, E7 = (
 
 @compiled(inline="always")
 def rates(z, vy, s, env, dx, v, c):  # pragma: no cover - compiled
-    """The module docstring's right-hand side at the height ``z`` (m), vertical speed ``vy`` (m/s)
-    and path coordinate ``s`` (m) under the :class:`Constants` ``c``: ``(z', vy', u', impulse',
-    loss', plate', drive', gross', delta)``, the last the penetration (m). Inlined into
-    :func:`roll`, where the scalar stages stay in registers."""
+    """Right-hand side at height ``z`` (m), speed ``vy`` (m/s), path coordinate ``s`` (m):
+    ``(z', vy', u', impulse', loss', plate', drive', gross', delta)``, delta in m."""
     e, ep, _ = envelope_at(env, dx, s)
     delta = e - z
     w = ep * v - vy
@@ -127,10 +116,8 @@ def error4(h, k1, k3, k4, k5, k6, k7):  # pragma: no cover - compiled
 
 @compiled(inline="always")
 def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - compiled
-    """The step's error over the tolerance (``err_z``, ``err_v`` over ``sc_z``, ``sc_v``) and the
-    next step (s) after ``hh``: ``hh min(5, 0.9 err^-0.2)`` if accepted, ``hh max(0.2, 0.9
-    err^-0.2)`` if not (Hairer, Norsett & Wanner II.4); an error small enough for the largest
-    step ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``) is found by products alone, returned 0."""
+    """Step error over tolerance and the next step (s) after ``hh`` (Hairer, Norsett & Wanner
+    II.4); 0 when the largest step ``min(5 hh, h_max)`` applies."""
     r = hh * grow
     reach = max(r * r * r * r * r, TINY_ERROR)
     if abs(err_z) <= reach * sc_z and abs(err_v) <= reach * sc_v:
@@ -143,9 +130,8 @@ def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - co
 
 @compiled()
 def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
-    """The first time in ``(a, b]`` (s) where the penetration ``P(t) = p0 + p1 t + p2 t^2 + p3 t^3``
-    (m) reaches 0, given ``P(a) < 0``, within ``tol`` (s) before it; -1.0 if none: the first
-    critical point (or ``b``) where ``P >= 0`` brackets it, bisection narrows it."""
+    """First time in ``(a, b]`` (s) where the cubic penetration ``P(t)`` (m) reaches 0, given
+    ``P(a) < 0``, within ``tol`` (s) before it; -1.0 if none."""
     # the critical points: roots of 3 p3 t^2 + 2 p2 t + p1
     c1 = c2 = b
     qa, qb = 3.0 * p3, 2.0 * p2
@@ -180,11 +166,9 @@ def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
 
 @compiled()
 def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
-    """The parabolic flight from ``s`` (m), height ``z`` (m), vertical speed ``vy`` (m/s) at ``v``
-    (m/s) under ``g`` (m/s^2): how long (s) it flies, to the first contact (``tol`` s before) or
-    at most ``span`` (s), and whether it lands. Over each spline piece the penetration is a
-    cubic in ``t``, without contact where below its chord's larger end plus ``max |P''| L^2 /
-    8``, else :func:`first_contact` finds the root."""
+    """The parabolic flight from ``s`` (m), ``z`` (m), ``vy`` (m/s) at ``v`` (m/s) under ``g``
+    (m/s^2): its duration (s), to the first contact or ``span`` (s), and whether it lands. A
+    piece is skipped when below its chord's larger end plus ``max |P''| L^2 / 8``."""
     n = env.shape[0]
     i = spline_piece(n, dx, s)
     a = 0.0
@@ -225,12 +209,10 @@ def _store(y, z, vy, u, imp, loss, plate, drive, gross, s):  # pragma: no cover 
 def roll(
     y, h, env, dx, speeds, c, max_steps, force_out, min_penetration, path_out
 ):  # pragma: no cover - compiled
-    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s) under the
-    :class:`Constants` ``c`` over the periods of ``1 / samplerate`` s at the speeds ``speeds``
-    (m/s); write each period's mean force (N), smallest penetration at its steps' ends (m) and
-    path coordinate at its start (m). Each period starts at its own time 0, so a rolling cut at
-    sample boundaries gives the bits of one call. Returns ``(status, steps, rejected, flights,
-    h)``, ``h`` the next step."""
+    """Integrate from ``y`` (in place) with first step ``h`` (s) over periods of ``1 / samplerate``
+    s at ``speeds`` (m/s), writing each period's mean force (N), least penetration (m) and start
+    coordinate (m). Each period starts at its own time 0, so a rolling cut at sample boundaries
+    gives the bits of one call. Returns ``(status, steps, rejected, flights, h)``."""
     g, samplerate, rtol, delta_ref, h_max = c.g, c.samplerate, c.rtol, c.delta_ref, c.h_max
     n_samples = force_out.shape[0]
     period = 1.0 / samplerate
@@ -349,18 +331,16 @@ LEFT_PLATE = 2
 
 @compiled()
 def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
-    """A bound (m) of the centre's travel over the first ``count`` of the monotone ``planned``
-    speeds (m/s) from ``x`` (m), far above the sums' rounding: within it no cumulative sum."""
+    """X"""
     travel = count * max(planned[0], planned[count - 1]) / samplerate
     return travel + 1e-9 * (travel + abs(x))
 
 
 @compiled()
 def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cover - compiled
-    """The speeds (m/s) of the next block of at most ``count`` periods into ``out`` from ``v`` (m/s)
-    under ``decel`` (m/s^2), the centre at ``x`` (m): how many, and how it ends, cut at the stop
-    (:data:`STOPPED`) or where the centre passes ``x_end`` (m, :data:`LEFT_PLATE`), else
-    :data:`RUNNING`."""
+    """The next block's speeds (m/s) into ``out`` from ``v`` (m/s) under ``decel`` (m/s^2), the
+    centre at ``x`` (m): how many and how it ends (:data:`STOPPED`, :data:`LEFT_PLATE` past
+    ``x_end``, else :data:`RUNNING`)."""
     end = RUNNING
     for k in range(count):
         out[k] = v - decel * (k + 0.5) / samplerate
@@ -384,13 +364,10 @@ def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cove
 def roll_blocks(
     y, h, env, dx, c, d, v, n_max, out, min_penetration, tallies
 ):  # pragma: no cover - compiled
-    """A path's rolling (:mod:`synth.physics.path`) from ``y`` (updated in place) and step ``h`` (s)
-    at ``v`` (m/s) under the :class:`Constants` ``c``, in blocks of ``d.block`` periods, at most
-    ``n_max``: each block's speeds fall by ``d.decel`` (:class:`Drive`; :func:`block_speeds`, cut
-    at ``d.x_end``), :func:`roll` integrates it, and the kinetic energy ``d.kinetic_mass v^2``
-    (J) loses the roughness' work. Writes each period's force (N), centre (m) and speed (m/s)
-    into the rows of ``out`` (3, n_max); adds the contact's loss, the plate's energy, the work
-    of the resistance and the roughness' (J) to ``tallies[0:4]``. Returns ``(status, end,
+    """A path's rolling from ``y`` (in place) and step ``h`` (s) at ``v`` (m/s), in blocks of
+    ``d.block`` periods, at most ``n_max``, the kinetic energy losing the roughness' work.
+    Writes force (N), centre (m), speed (m/s) into ``out`` (3, n_max); adds loss, plate
+    energy, resistance and roughness work (J) to ``tallies[0:4]``. Returns ``(status, end,
     periods, h, v, flights)``."""
     samplerate = c.samplerate
     force_out, centre_out, speed_out = out[0], out[1], out[2]
@@ -435,9 +412,7 @@ def roll_blocks(
 
 @compiled()
 def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
-    """The touching points' path coordinates (m) of ``centres`` (m) into ``out`` (may be
-    ``centres``): each plus the ``offsets`` (m, every ``spacing`` m) interpolated, held beyond
-    the ends; numpy's ``interp`` to the bit."""
+    """Touching points' path coordinates (m) of ``centres`` into ``out`` (as numpy's ``interp``)."""
     last = offsets.shape[0] - 1
     for k in range(centres.shape[0]):
         c = centres[k]

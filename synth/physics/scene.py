@@ -14,8 +14,8 @@ from synth.physics.materials import Damping, Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
-# Ranges of the scene's numbers: a ball dropped on a thin plate in a room (thesis ch. 2) with a
-# wide margin, every derived figure (speed, contact time, mode count, audio length) finite.
+# Ranges: a ball dropped on a thin plate in a room (thesis ch. 2) with a wide margin, every
+# derived figure finite.
 #: Ball radius, m: a grain of fine sand (below it the contact is not a continuum's) to 1 m.
 MIN_BALL_RADIUS, MAX_BALL_RADIUS = 1e-6, 1.0
 #: Ball mass, kg: a steel sphere of MIN_BALL_RADIUS (a lighter ball's force nears float64's
@@ -97,16 +97,12 @@ MAX_GAUGE_PRESSURE = 1e6
 
 @dataclass(frozen=True)
 class HollowBall(Ball):
-    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball),
-    usable wherever a :class:`Ball` is; its contact is the thin-shell law (docs/physics.md,
-    "Hollow balls").
-
-    Keyword fields: wall ``thickness`` ``h`` in (0, R_s / 2] m; gauge ``pressure`` of the gas in
-    [0, 1e6] Pa; ``cover_thickness`` in [0, radius / 2) m outside the shell (a tennis ball's felt:
-    mass and size, no force), the shell's outer radius ``R_s = radius - cover_thickness``;
-    ``cover_mass`` in [0, 1000] kg. The mass is derived: the shell's ``rho 4/3 pi (R_s^3 - (R_s -
-    h)^3)``, the air at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas), the
-    cover's."""
+    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball), usable
+    wherever a :class:`Ball` is; its contact is the thin-shell law (docs/physics.md, "Hollow
+    balls"). Keyword fields: wall ``thickness`` in (0, R_s / 2] m; gauge ``pressure`` in [0, 1e6]
+    Pa; ``cover_thickness`` in [0, radius / 2) m (a tennis ball's felt: mass and size, no force),
+    ``R_s = radius - cover_thickness``; ``cover_mass`` in [0, 1000] kg. The mass is derived: shell,
+    air at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas), cover."""
 
     _: KW_ONLY
     thickness: float | None = None
@@ -275,8 +271,7 @@ CONTACT_LAWS = (
 )  # fmt: skip
 #: The contact laws' parameters (fields of :class:`Contact`).
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
-#: The two surfaces in the contact (:class:`Contact`'s ``surface``;
-#: :func:`synth.physics.contact_law.resolved_surface` resolves "auto").
+#: The two surfaces in the contact (:class:`Contact`'s ``surface``).
 SURFACE_MODELS = ("ideal", "material", "fitted", "auto")
 #: The plate in the contact (:class:`Contact`'s ``plate``; :mod:`synth.physics.plate_choice`).
 PLATE_MODELS = ("impedance", "modal", "auto")
@@ -291,9 +286,9 @@ _LAW_NEEDS = {
     "power-law": ("exponent", "stiffness"),
 }
 
-#: Named contact models, (law, plate, surface): "measured" the closest to measurement at the
-#: impedance model's speed, "thesis" the thesis' model (lossless Hertz, the plate as its
-#: impedance), "fitted" the fitted surface with the modes in every contact.
+#: Named contact models, (law, plate, surface): "measured" the closest to measurement,
+#: "thesis" the thesis' model (lossless Hertz, impedance plate), "fitted" the fitted surface
+#: with the modes in every contact.
 CONTACT_MODELS = {
     "measured": ("hertz", "auto", "auto"),
     "thesis": ("hertz", "impedance", "ideal"),
@@ -305,17 +300,14 @@ CONTACT_MODELS = {
 class Contact:
     """The contact model and its accuracy (docs/physics.md, "Hertz contact").
 
-    ``law`` (:data:`CONTACT_LAWS`) with its parameters, others refused: ``dissipation`` ``mu`` > 0
-    s/m ("hunt-crossley"), ``viscous_time`` ``A`` > 0 s ("viscoelastic"), ``exponent`` in (1, 4]
-    and ``stiffness`` > 0 N/m^n ("power-law"), ``layer_depth`` > 0 m ("elastic-foundation",
-    default the plate's thickness). ``rtol`` in [1e-12, 0.1]: each impact's relative accuracy.
-    ``plate``: "impedance", "modal" (:mod:`synth.physics.modal_contact`) or "auto"
-    (:mod:`synth.physics.plate_choice`). ``surface``: "ideal" (lossless half-spaces), "material"
-    (Hertz only: the published loss factors), "fitted" (Hertz only:
-    :class:`synth.physics.materials.ContactSurface`) or "auto" ("fitted" where the material has
-    one, else "material"; "ideal" for other laws). ``model``: a named law, plate and surface
-    (:data:`CONTACT_MODELS`, default "measured"), those given taking precedence. ``theory``: the
-    modal plate's, "kirchhoff" (default) or "mindlin"."""
+    ``law`` (:data:`CONTACT_LAWS`) with its parameters, others refused: ``dissipation`` > 0 s/m
+    ("hunt-crossley"), ``viscous_time`` > 0 s ("viscoelastic"), ``exponent`` in (1, 4] and
+    ``stiffness`` > 0 N/m^n ("power-law"), ``layer_depth`` > 0 m ("elastic-foundation", default
+    the plate's thickness). ``rtol`` in [1e-12, 0.1]: each impact's relative accuracy.
+    ``plate``: "impedance", "modal" or "auto". ``surface``: "ideal" (lossless half-spaces),
+    "material" (Hertz only: published loss factors), "fitted" (Hertz only) or "auto". ``model``:
+    a named law, plate and surface (:data:`CONTACT_MODELS`, default "measured"), those given
+    taking precedence. ``theory``: the modal plate's, "kirchhoff" (default) or "mindlin"."""
 
     law: str | None = None
     dissipation: float | None = None
@@ -383,8 +375,7 @@ class Contact:
                 _set(self, **{key: value})
 
     def options(self) -> dict:
-        """The law's parameters as :func:`synth.physics.contact_law.contact_parameters` takes
-        them."""
+        """The law's parameters as ``contact_parameters`` takes them."""
         options = {k: getattr(self, k) for k in LAW_OPTIONS if getattr(self, k) is not None}
         if self.surface != "ideal":
             options["surface"] = self.surface
@@ -395,15 +386,11 @@ class Contact:
 class Rolling:
     """How a ball dropped with a horizontal velocity rolls (docs/rolling.md, "The ball's path").
     No value is built in (no published rolling-resistance coefficient to cite): a preset states
-    them, its roughness a published measurement's where
-    :data:`synth.physics.surface.MEASURED_ROUGHNESS` has one.
-
-    ``resistance`` ``C_rr`` in [0, 1]: the rolling loses ``C_rr m g`` J per metre besides the
-    roughness' micro-impacts (Cross, Am. J. Phys. 84, 221 (2016)); ``spacing`` in (0, 0.01] m of
-    the profile's samples; ``rms_height`` ``sigma`` >= 0 m of the Matern roughness (0: smooth; at
-    most :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's thickness) with its
-    ``correlation_length`` in (0, 100] m and ``hurst`` in (0, 1] (required when ``sigma > 0``);
-    ``seed`` >= 0 of the profile."""
+    them. ``resistance`` ``C_rr`` in [0, 1] (Cross, Am. J. Phys. 84, 221 (2016)); ``spacing`` in
+    (0, 0.01] m of the profile's samples; ``rms_height`` >= 0 m of the Matern roughness (0:
+    smooth; at most :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's
+    thickness) with ``correlation_length`` in (0, 100] m and ``hurst`` in (0, 1] (required when
+    rough); ``seed`` >= 0."""
 
     resistance: float
     spacing: float
@@ -447,9 +434,8 @@ class Scene:
     """A ball dropped on a plate, heard by a listener. Keyword fields: ``drop_height`` in [1e-6,
     1000] m of the ball's lowest point; ``position`` on the plate, m (default the centre);
     ``listener`` (default a microphone 0.2 m above the impact); ``gravity`` in (0, 1000] m/s^2;
-    ``contact`` (default :class:`Contact`'s); ``velocity`` ``(v_x, v_y)`` at release, m/s (the
-    ball then bounces along a path and rolls, :mod:`synth.physics.path`, and needs
-    ``rolling``)."""
+    ``contact``; ``velocity`` ``(v_x, v_y)`` at release, m/s (the ball then bounces along a path
+    and rolls, and needs ``rolling``)."""
 
     ball: Ball
     plate: Plate
@@ -502,7 +488,7 @@ class Scene:
 
     def _check_shell(self, hollow: bool):
         """A hollow ball takes the thin-shell law and the impedance plate (the modal and rolling
-        contacts take the power laws only); the shell law takes a hollow ball."""
+        contacts take power laws only); the shell law takes a hollow ball."""
         law, plate = self.contact.law, self.contact.plate
         if hollow and law != "shell":
             raise ParameterError(

@@ -1,9 +1,7 @@
-"""A plate's surface along a ball's path: its roughness profile and the envelope a ball rides
-(docs/rolling.md, "The surface"): :func:`rough_profile` (the Matern spectrum of
-:class:`RoughnessSpectrum`; Matern 1960; Rasmussen & Williams 2006, eqs. 4.14-4.15; Persson et
-al. 2005, J. Phys.: Condens. Matter 17, R1), :func:`sinusoidal_profile` (for the closed-form
-checks), :data:`MEASURED_ROUGHNESS`, and :func:`contact_envelope`, the lowest point of a sphere of
-radius ``R`` over ``s``, ``e(s) = max_x [h(x) - (R - sqrt(R^2 - (x - s)^2))]``.
+"""A plate's surface along a ball's path (docs/rolling.md, "The surface"): the Matern roughness
+profile (Matern 1960; Rasmussen & Williams 2006, eqs. 4.14-4.15; Persson et al. 2005, J. Phys.:
+Condens. Matter 17, R1) and the envelope a sphere of radius ``R`` rides, ``e(s) = max_x [h(x) -
+(R - sqrt(R^2 - (x - s)^2))]``.
 """
 
 from __future__ import annotations
@@ -22,16 +20,14 @@ from synth.errors import ParameterError
 
 #: Most samples of a profile (a 10 m path at 1 um spacing).
 MAX_PROFILE_SAMPLES = 10_000_000
-#: Correlation lengths of padding around a rough profile's periodic synthesis domain: the
-#: Matern correlation at that lag is below 1e-6 for every ``H <= 1``, so the ends are apart.
+#: Correlation lengths of padding around the periodic synthesis domain (Matern correlation
+#: below 1e-6 at that lag for every ``H <= 1``).
 PADDING_CORRELATION_LENGTHS = 16.0
-#: Newton iterations locating a summit's contact point between samples (quadratic convergence
-#: from within a sample: machine precision in about four).
+#: Newton iterations for a summit's contact point (quadratic from within a sample).
 NEWTON_ITERATIONS = 6
 #: Samples per run whose highest point bounds the runs :func:`_best_samples` may skip.
 DILATION_BLOCK = 8
-#: Largest RMS height and correlation length of a roughness spectrum, m: the largest plate
-#: (:data:`synth.physics.scene.MAX_PLATE_SIZE`); it keeps ``sigma^2`` far from overflow.
+#: Largest RMS height and correlation length, m (the largest plate; ``sigma^2`` far from overflow).
 MAX_ROUGHNESS_SCALE = 100.0
 
 
@@ -42,8 +38,7 @@ def read_only(a: np.ndarray) -> np.ndarray:
 
 
 def samples(name: str, value, least: int, most: int, unit: str, nonnegative=False) -> np.ndarray:
-    """``value`` as a new 1-D float array of ``least`` to ``most`` finite samples (``>= 0`` if
-    ``nonnegative``), else a ``ParameterError`` naming the first bad sample."""
+    """``value`` as a new 1-D float array of finite samples, else ``ParameterError``."""
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -62,8 +57,7 @@ def samples(name: str, value, least: int, most: int, unit: str, nonnegative=Fals
 
 @dataclass(frozen=True, eq=False)
 class Profile:
-    """Heights ``h(i spacing)`` (m above the plate's plane; 4 to :data:`MAX_PROFILE_SAMPLES`,
-    read-only) along a straight path, ``spacing`` (m) and a ``description`` for reports."""
+    """Heights (m, read-only) every ``spacing`` m along a straight path, with a ``description``."""
 
     heights: np.ndarray
     spacing: float
@@ -112,17 +106,15 @@ class RoughnessSpectrum:
         return self.rms_height**2 * norm * (1.0 + kx * kx) ** -(H + 0.5)
 
 
-#: Hurst exponent of the measured surfaces: ``H = 3 - D_f``, the fractal dimension ``D_f =
-#: 2.15 +- 0.15`` of most natural and engineering surfaces (Persson, Tribol. Lett. 54, 99
-#: (2014)).
+#: Hurst exponent of the measured surfaces: ``H = 3 - D_f``, the fractal dimension ``D_f = 2.15 +-
+#: 0.15`` of most natural and engineering surfaces (Persson, Tribol. Lett. 54, 99 (2014)).
 SELF_AFFINE_HURST = 0.85
 
 
 @dataclass(frozen=True)
 class MeasuredRoughness:
     """A surface's published roughness (docs/rolling.md, "Measured surfaces"): ``Ra`` (ISO 4287,
-    m) at the filter cut-off ``lambda_c`` (m); ``source``: where, and how what it does not state
-    was chosen."""
+    m) at the cut-off ``lambda_c`` (m); ``source``."""
 
     surface: str
     ra: float
@@ -172,12 +164,9 @@ def _seed(seed) -> int:
 def rough_profile(
     spectrum: RoughnessSpectrum, *, length: float, spacing: float, seed: int
 ) -> Profile:
-    """A random profile with ``spectrum`` along ``length`` m every ``spacing`` m, from the integer
-    ``seed`` (numpy's PCG64): spectral synthesis on a periodic domain of ``M`` samples, ``P = M
-    spacing`` (the path and :data:`PADDING_CORRELATION_LENGTHS`), ``h(x_j) = sum_m c_m exp(i k_m
-    x_j)``, ``k_m = 2 pi m / P``, complex Gaussian ``c_m = conj(c_-m)``, ``E |c_m|^2 = S(k_m) /
-    P`` (real at Nyquist), ``c_0 = 0``; its first samples, of mean square
-    :func:`expected_mean_square`."""
+    """A random profile with ``spectrum`` along ``length`` m every ``spacing`` m from ``seed``
+    (PCG64): spectral synthesis on a padded periodic domain of period ``P``, Gaussian ``c_m =
+    conj(c_-m)``, ``E |c_m|^2 = S(k_m) / P``, ``c_0 = 0``."""
     if not isinstance(spectrum, RoughnessSpectrum):
         raise ParameterError(f"spectrum={spectrum!r} must be a RoughnessSpectrum")
     L, dx, n = _check_grid(length, spacing)
@@ -226,8 +215,7 @@ def expected_mean_square(spectrum: RoughnessSpectrum, *, length: float, spacing:
 def sinusoidal_profile(
     *, amplitude: float, wavelength: float, length: float, spacing: float, phase: float = 0.0
 ) -> Profile:
-    """``amplitude sin(2 pi x / wavelength + phase)`` (m, rad) along ``length`` m every
-    ``spacing`` m."""
+    """``amplitude sin(2 pi x / wavelength + phase)`` (m, rad) over ``length``, ``spacing`` (m)."""
     A = checks.positive("amplitude", amplitude, "metres")
     lam = checks.positive("wavelength", wavelength, "metres")
     phi = checks.real("phase", phase, "rad")
@@ -247,11 +235,9 @@ def sinusoidal_profile(
 
 @dataclass(frozen=True, eq=False)
 class ContactEnvelope:
-    """What a sphere of ``radius`` ``R`` (m) on a :class:`Profile` touches with its centre above
-    ``s_i = i spacing`` (m): its lowest point's ``heights`` ``e(s_i)`` (m), the touching point's
-    ``contact_offsets`` from ``s_i`` (m), and ``coefficients`` (N - 1, 4) of the not-a-knot
-    cubic spline through ``heights`` (C2: the centripetal acceleration is resolved;
-    :func:`envelope_at`)."""
+    """What a sphere of ``radius`` (m) touches with its centre above ``i spacing`` (m): its lowest
+    point's ``heights`` (m), the touching point's ``contact_offsets`` (m) and the not-a-knot cubic
+    spline's ``coefficients`` (N - 1, 4) (C2: the centripetal acceleration is resolved)."""
 
     heights: np.ndarray
     contact_offsets: np.ndarray
@@ -267,9 +253,8 @@ class ContactEnvelope:
 
 
 def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
-    """The envelope a sphere of ``radius`` (m) rides on ``profile``: at every sample the best
-    ``h_j - (R - sqrt(R^2 - (x_j - s_i)^2))`` within reach, refined by Newton's iteration on the
-    profile's spline between that sample's neighbours (no grid in a smooth summit's curvature)."""
+    """The envelope a sphere of ``radius`` (m) rides on ``profile``: the best sample in reach,
+    refined by Newton on the profile's spline (no grid in a summit's curvature)."""
     if not isinstance(profile, Profile):
         raise ParameterError(f"profile={profile!r} must be a Profile")
     R = checks.positive("radius", radius, "metres")
@@ -294,14 +279,12 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
 
 
 def _spline(x, y) -> np.ndarray:
-    """The not-a-knot cubic spline's coefficients (N - 1, 4) through ``(x, y)``, read-only (as
-    every caller of :func:`envelope_at` passes them: one numba type)."""
+    """Not-a-knot cubic spline coefficients (N - 1, 4), read-only (one numba type)."""
     return read_only(np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T))
 
 
 def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
-    """The cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``|k| <= window``, ``+inf`` out
-    of reach."""
+    """Cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``|k| <= window``, ``+inf`` beyond."""
     d = np.arange(-window, window + 1) * dx
     q = R * R - d * d
     depths = np.full(d.size, np.inf)
@@ -312,10 +295,8 @@ def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
 
 @compiled()
 def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
-    """For every sample ``i``: ``best_i = max_j (h_j - caps[j - i + window])`` and ``first_i`` the
-    first ``j`` reaching it. Runs of :data:`DILATION_BLOCK` samples are scanned from ``i``
-    outwards, skipping one whose top less the cap's least depth over it is below the best so far
-    (the full scan's bits)."""
+    """``best_i = max_j (h_j - caps[j - i + window])`` and the first ``j`` reaching it; runs
+    that cannot beat the best so far are skipped (the full scan's bits)."""
     n = h.shape[0]
     window = (caps.shape[0] - 1) // 2
     B = DILATION_BLOCK
@@ -360,9 +341,7 @@ def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
 
 @compiled()
 def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compiled
-    """``e_i = max_x (h(x) - cap(x - s_i))`` on the profile's spline: the best sample, then Newton
-    on ``h'(x) - (x - s_i) / sqrt(R^2 - (x - s_i)^2) = 0`` within its neighbours; ``off_i`` the
-    maximiser's offset, m."""
+    """``e_i`` by Newton on the profile's spline from the best sample; ``off_i`` its offset, m."""
     n = h.shape[0]
     R2 = R * R
     bests = np.empty(n)
@@ -415,8 +394,7 @@ def spline_piece(n, dx, s):  # pragma: no cover - compiled
 
 @compiled()
 def envelope_at(coefficients, dx, s):  # pragma: no cover - compiled
-    """``(e(s), e'(s), e''(s))`` (m, dimensionless, 1/m) of the envelope's cubic spline
-    (:attr:`ContactEnvelope.coefficients`) at ``s`` (m, inside ``[0, (N-1) dx]``)."""
+    """``(e, e', e'')`` (m, 1, 1/m) of the envelope's spline at ``s`` (m, in ``[0, (N-1) dx]``)."""
     i = spline_piece(coefficients.shape[0], dx, s)
     t = s - i * dx
     c0 = coefficients[i, 0]

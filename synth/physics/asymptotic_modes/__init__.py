@@ -1,13 +1,8 @@
-"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md,
-"Large free and clamped plates"): a mode is a product ``X(x) Y(y)`` of factors, each an
-interior term plus edge terms decaying from the edges, whose edge conditions give one
-equation in ``s_x`` per ``s_y`` (:mod:`.roots`), solved alternately at a cost linear in the
-modes; a Rayleigh-Ritz step (:mod:`.ritz`) couples a symmetry class's trials within
-``_PAIR_GAP``, splitting a square's degenerate pairs; :mod:`.factors` evaluates the shapes.
-
-References: V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib. Dig. 8 (1976); K.
-Vijayakumar, J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*, NASA
-SP-160 (1969)."""
+"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md, "Large
+free and clamped plates"): a mode is ``X(x) Y(y)``, each factor an interior term plus edge terms,
+whose edge conditions are solved alternately at a cost linear in the modes; a Rayleigh-Ritz step
+splits near-degenerate pairs. V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib.
+Dig. 8 (1976); K. Vijayakumar, J. Aeronaut. Soc. India 25 (1973); Leissa, NASA SP-160 (1969)."""
 
 from __future__ import annotations
 
@@ -41,8 +36,7 @@ def mode_count_estimate(aspect: float, omega: float) -> float:
 
 def _trial_indices(hx: float, hy: float, free: bool, omega_trials: float):
     """Indices ``(nx, ny)`` of the trials up to ``omega_trials`` on half sides ``hx``, ``hy``
-    (units of ``L``), without the free plate's rigid-body motions: ``k_x >= (N_x - 1) pi / A``,
-    ``k_x^2 + k_y^2 <= omega``."""
+    (units of ``L``), without rigid-body motions."""
     first = 0 if free else 2
     kmax = math.sqrt(omega_trials)
     ix = np.arange(first, int(kmax * 2.0 * hx / math.pi) + 3)
@@ -59,10 +53,9 @@ def _trial_indices(hx: float, hy: float, free: bool, omega_trials: float):
 
 
 class EdgeEffectSolution:
-    """Modes of a free or clamped plate (aspect ``a/b``, Poisson ``nu``) up to the dimensionless
-    ``omega_max``, lengths in units of ``L = max(a, b)``: trials ``X_t(x) Y_t(y)`` of indices
-    ``(nx[t], ny[t])`` and ``sx[t]``, ``sy[t]``; mode ``k`` (``omega`` ascending) is ``own[k]
-    trial[k] + other[k] trial[partner[k]]`` (``partner[k] = -1``: alone), of mean square 1."""
+    """Modes of a free or clamped plate up to the dimensionless ``omega_max`` (lengths in units of
+    ``L = max(a, b)``): mode ``k`` is ``own[k] trial[k] + other[k] trial[partner[k]]``
+    (``partner`` -1: alone), of mean square 1."""
 
     def __init__(self, boundary: str, nu: float, aspect: float, omega_max: float):
         self.boundary = boundary
@@ -73,8 +66,7 @@ class EdgeEffectSolution:
         self.half = (0.5 / rx, 0.5 / ry)
         free = boundary == "free"
         hx, hy = self.half
-        # trials up to a margin above the band: the Rayleigh-Ritz step moves a pair's
-        # frequencies by at most about the pair's gap
+        # trials above the band: the Ritz step moves a pair by at most about its gap
         omega_trials = omega_max * (1.0 + 2.0 * _PAIR_GAP)
         nx, ny = _trial_indices(hx, hy, free, omega_trials)
         sx = starting_s(nx, hx, free).copy()
@@ -148,9 +140,8 @@ class EdgeEffectSolution:
         return table
 
     def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
-        """Shapes of modes ``first <= k < n_modes`` (or ``index``) at ``(xi, eta)``: ``(len(xi),
-        n)``, or written into ``out[:, column:column + n]``; factors once per distinct
-        coordinate."""
+        """Shapes of modes ``first <= k < n_modes`` (or ``index``) at ``(xi, eta)``, or into
+        ``out[:, column:column + n]``."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
         pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
@@ -169,9 +160,7 @@ class EdgeEffectSolution:
         return out
 
     def product_factors(self, xi, eta, index):
-        """Modes ``index`` (ascending) as tables of factors at the distinct ``xi``, ``eta``:
-        ``(x_own, y_own, x_other, y_other)`` as
-        :meth:`synth.physics.modes.EdgeEffectPart.product_factors`."""
+        """Modes ``index`` as factor tables (as ``EdgeEffectPart.product_factors``)."""
         index = np.asarray(index, dtype=np.int64)
         trial = self.trial[index]
         partner = self.partner[index]

@@ -17,8 +17,7 @@ _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(8)
 
 @compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
-    """``c_edge`` of the factor ``u(x) + c_edge e(x)`` from the better-conditioned edge
-    condition."""
+    """``c_edge`` of ``u(x) + c_edge e(x)`` from the better-conditioned edge condition."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     c, ks, sk = entire_terms(s, h)
@@ -136,9 +135,7 @@ def factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 
 @compiled()
 def gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # noqa: PLR0913  # pragma: no cover
-    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (factors ``fx``,
-    ``fy`` at ``ix[p]``, ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1), the
-    factors first laid out in the modes' order."""
+    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p``."""
     m = trial.size
     gx = np.zeros((fx.shape[0], m))
     hx = np.zeros((fx.shape[0], m))

@@ -133,9 +133,8 @@ def _pair_eigen(kk, mm):  # pragma: no cover
 def rayleigh_ritz(  # noqa: PLR0913
     sx, sy, nx, ny, hx, hy, free, nu, cx, gx, cy, gy, omega, partner
 ):  # pragma: no cover
-    """``(omega, own, other)`` per trial: a pair solves ``K v = omega^2 M v`` on its two shapes
-    (the lower root to the lower trial), a clamped trial alone takes its Rayleigh quotient, a
-    free one alone keeps its edge effect frequency."""
+    """``(omega, own, other)`` per trial: a pair solves its 2 x 2 problem, a clamped trial alone
+    its Rayleigh quotient, a free one alone keeps its edge effect frequency."""
     n = omega.size
     out = omega.copy()
     own = np.ones(n)

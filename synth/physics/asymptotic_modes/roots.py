@@ -48,8 +48,7 @@ def edge_terms(m2, h):  # pragma: no cover
 
 @compiled()
 def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
-    """The one-dimensional characteristic function at ``s_x = s`` for ``s_y = so``, half-length
-    ``h``."""
+    """The 1-D characteristic function at ``s_x = s`` for ``s_y = so``, half-length ``h``."""
     c, ks, sk = entire_terms(s, h)
     mt, tm = edge_terms(s + 2.0 * so, h)
     if free:
@@ -90,9 +89,8 @@ def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # noqa: PLR0913
 
 @compiled()
 def _root(n, so, h, free, nu):  # pragma: no cover
-    """``s`` of the ``n``-th root for ``s_y = so``: for ``n >= 2`` on ``k = sqrt(s)`` in ``((n - 1)
-    pi / (2h), n pi / (2h)]``; for free ``n = 0, 1`` bracketed by scanning ``s`` down to ``s + 2 so
-    > 0``. NaN if no root is bracketed."""
+    """``s`` of the ``n``-th root for ``s_y = so`` (bracketed on ``k``, or by a scan for free ``n
+    <= 1``); NaN if none is bracketed."""
     odd = n % 2 == 1
     if n >= 2:
         lo = (n - 1) * math.pi / (2.0 * h) * (1.0 + 1e-15)
@@ -145,8 +143,7 @@ def solve_pairs(nx, ny, hx, hy, free, nu, sx, sy):  # pragma: no cover
 
 
 def starting_s(n, h, free):
-    """Starting ``s`` of index ``n``: Bolotin's phase ``(n - 1/2) pi``, 0 for the free low
-    families."""
+    """Starting ``s`` of index ``n``: Bolotin's phase ``(n - 1/2) pi``, 0 for free low families."""
     k = (n - 0.5) * math.pi / (2.0 * h)
     if free:
         k = np.where(n >= 2, k, np.where(n == 1, 0.5 * math.pi / (2.0 * h), 0.0))

@@ -1,9 +1,5 @@
-"""numba kernels of the contact solver (private to synth.physics.contact) for the equations
-of docs/physics.md, "Hertz contact": ``equations``; ``series`` (the start of contact);
-``dop853`` (Hairer, Norsett & Wanner, "Solving ODEs I", II.10); ``radau`` (Radau IIA,
-Hairer & Wanner, "Solving ODEs II", IV.8, stiff); ``dense`` (dense output and events);
-``outcome`` (the result array ``R_*``); here the drivers ``impact``, ``impacts_explicit``,
-``pulse`` and ``force_slope_at``.
+"""numba kernels and drivers of the contact solver (docs/physics.md, "Hertz contact"); DOP853
+and Radau IIA after Hairer, Norsett & Wanner, "Solving ODEs I" II.10 and "II" IV.8.
 
 numba's cache keys a kernel on its own file: after editing one of these modules, clear the
 ``__pycache__`` folders so that its callers compile again.
@@ -69,22 +65,18 @@ from synth.physics.contact_kernels.outcome import (
 from synth.physics.contact_kernels.radau import integrate_radau
 from synth.physics.contact_kernels.series import new_series, series_coefficients, series_start
 
-# The solver's settings: constants of the compiled ``impact``, not arguments (each costs
-# its dispatch time).
-#: Zener's inelasticity above which the contact is integrated by the implicit
-#: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
+# Constants of the compiled ``impact``, not arguments (each argument costs dispatch time).
+#: Zener's inelasticity above which Radau IIA integrates instead of DOP853 (stiffness ~ lam^(5/3)).
 STIFF_LAMBDA = 20.0
-#: Absolute tolerance of the dimensionless state relative to the local tolerance: the
-#: state starts at order one, so this keeps the control relative down to 1e-6 of that
-#: scale (small restitutions, the long tails of very inelastic contacts).
+#: Absolute tolerance of the order-one dimensionless state relative to ``rtol``: keeps the
+#: control relative down to 1e-6 (small restitutions, long inelastic tails).
 ABSOLUTE_FACTOR = 1e-6
 #: Steps before DOP853 gives up and the implicit method takes over.
 EXPLICIT_STEP_LIMIT = 20_000
 #: Steps before the implicit method reports failure.
 IMPLICIT_STEP_LIMIT = 200_000
 
-#: Columns of :func:`impacts_explicit`'s results past the result array: an impact's start
-#: (s) and speed (m/s).
+#: Columns past the result array: an impact's start (s) and speed (m/s).
 R_T1 = N_RESULT
 R_V1 = N_RESULT + 1
 
@@ -94,32 +86,25 @@ DOP853 = 1
 RADAU = 2
 
 
-#: The lumped parameters of an impact (SI units, ``impact``'s): the ball's mass ``m`` (kg),
-#: the law's stiffness ``K`` (N/m^n) and exponent ``n``, the admittance ``beta`` (m/(N s)),
-#: gravity ``g`` (m/s^2), Hunt-Crossley's ``mu`` (s/m), the viscous time ``A`` (s), the yield
-#: penetration ``delta_y`` (m; None: no yield, the kernels compiled without it) and the
-#: surface's velocity ``v_free`` (m/s, upward).
+#: Lumped parameters of an impact: mass ``m`` (kg), stiffness ``K`` (N/m^n), exponent ``n``,
+#: admittance ``beta`` (m/(N s)), ``g`` (m/s^2), Hunt-Crossley ``mu`` (s/m), viscous time
+#: ``A`` (s), yield penetration ``delta_y`` (m; None: compiled without yield), surface
+#: velocity ``v_free`` (m/s, upward).
 Lumped = namedtuple("Lumped", ("m", "K", "n", "beta", "g", "mu", "A", "delta_y", "v_free"))
-#: The bounce scheduler's rules of :func:`impacts_explicit` (:func:`bounce_end`): the lowest
-#: kinetic energy relative to the first's, the end ``t_max`` (s), the most impacts; and its
-#: hand-over: at a contact time of ``tau_edge`` (s), or a failure above an energy residual
-#: of ``residual_limit``.
+#: Bounce rules: lowest kinetic energy relative to the first's, end ``t_max`` (s), most impacts;
+#: hand-over at a contact time ``tau_edge`` (s) or an energy residual above ``residual_limit``.
 Rules = namedtuple("Rules", ("energy_floor", "t_max", "max_impacts", "tau_edge", "residual_limit"))
 
 
 @compiled(inline="always")
 def solve(P, rtol, atol, max_steps, integrate, radau):
-    """One contact of the law ``P`` by ``integrate`` (``integrate_radau``, ``radau`` true,
-    or ``integrate_dop853``: a kernel compiles only the one it passes) from its series start
-    (``series.py``; the first step as long as the series' validity, like a step's): its
-    :func:`finish`."""
+    """One contact of the law ``P`` by ``integrate`` (DOP853 or Radau IIA; a kernel compiles
+    only the one it is passed), started from the series; its :func:`finish`."""
     S = new_series(P.b)
     # the series ends before the yield penetration xy (x <= (1 + G) s)
     s_max = yield_value(P.xy) / (1.0 + P.G)
     s1, x1, w1, i2, loss = series_start(P, rtol, S, s_max)
-    # zeros, not empty: a row fills only its method's columns (row 0, the series, none of
-    # the coefficients), and the history is returned whole; uninitialised columns would
-    # carry whatever the heap held, which differs between processes
+    # zeros, not empty: unused columns would otherwise differ between processes
     hist = np.zeros((32, H_COLS))
     hist[0, H_H] = s1
     hist[0, H_W0] = 1.0
@@ -129,10 +114,8 @@ def solve(P, rtol, atol, max_steps, integrate, radau):
 
 @compiled(inline="always")
 def finish(out, D):
-    """The end of contact, peak penetration and force of a contact integrated to ``out``
-    (the integrator's result) with the dense output ``D``: its :data:`~.outcome.End` and
-    the history's rows in use (row 0: the series, whose coefficients ``pulse`` recomputes).
-    ``s_force`` is the force pulse's end (:func:`force_end`)."""
+    """End of contact, peak penetration and force of the integrated contact ``out`` with
+    dense output ``D``; ``s_force`` is the force pulse's end (:func:`force_end`)."""
     status, s_end, x_end, w_end, i2, loss, nh, _, hist = out
     P = D.P
     s_contact = s_end
@@ -145,8 +128,6 @@ def finish(out, D):
     elif status == SETTLED:
         s_contact = event_root(D, nh - 1, SETTLING, 0.5 * (P.lam * P.G) ** 2)
     s_force = s_contact
-    # a loss, or a yield (the unloading force ends at the residual penetration), ends the
-    # force before the contact
     if status == SEPARATED and (P.c != 0.0 or P.b != 0.0 or yield_value(P.xy) != math.inf):
         s_force = min(force_end(D, nh), s_contact)
     x_max = peak_penetration(D, nh)
@@ -157,9 +138,7 @@ def finish(out, D):
 
 @compiled()
 def peak_penetration(D, nh):
-    """The largest penetration of the dense output ``D`` (its first ``nh`` rows): bracketed
-    by the step starts, refined where ``x' = w - lam f`` changes sign in the step before or
-    after the largest."""
+    """Largest penetration of dense output ``D``, refined where ``x' = w - lam f`` changes sign."""
     hist = D.hist
     ibest = 0
     for k in range(nh):
@@ -178,9 +157,7 @@ def peak_penetration(D, nh):
 
 @compiled()
 def peak_force(D, nh, x_max, s_contact):
-    """The largest force of the dense output ``D``: the elastic force at the peak
-    penetration ``x_max`` without a loss; else bracketed by the step starts and refined by
-    golden-section search up to ``s_contact``."""
+    """Largest force of ``D``: elastic at ``x_max`` without a loss, else golden-section search."""
     P = D.P
     if P.c == 0.0 and P.b == 0.0:
         return elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
@@ -200,10 +177,8 @@ def peak_force(D, nh, x_max, s_contact):
 
 @compiled()
 def force_end(D, nh):
-    """The end of a lossy contact's force pulse (dimensionless): the last time the force falls
-    to 0, before the penetration does (the ball moves apart from a surface still indented);
-    located in the last step that starts with a positive force (row 0 if none). The step
-    index is an int64, not a literal, so that ``event_root`` compiles once."""
+    """End of a lossy contact's force pulse (dimensionless): the force reaches 0 before the
+    penetration does. The step index is an int64 so that ``event_root`` compiles once."""
     hist = D.hist
     k = nh - 1
     while k > 0:
@@ -213,10 +188,8 @@ def force_end(D, nh):
     return event_root(D, k, FORCE_END, 0.0)
 
 
-#: How a bounce series ends (:func:`bounce_end`'s codes are indices into it; the names of
-#: :data:`synth.physics.bounces.STOP_REASONS`), and ``"handed-over"``: the compiled series
-#: (:func:`impacts_explicit`) stopped before an impact that its caller solves (by Radau IIA,
-#: or with the admittance near an edge).
+#: How a bounce series ends (:data:`synth.physics.bounces.STOP_REASONS`), plus
+#: ``"handed-over"``: stopped before an impact the caller solves (Radau IIA, or an edge).
 BOUNCE_ENDS = (
     "settled",
     "flight-shorter-than-contact",
@@ -239,11 +212,9 @@ END_HANDED_OVER = 6
 
 @compiled()
 def bounce_end(t, v1, g, success, settled, restitution, v_out, separation, energy_floor, t_max):
-    """The bounce scheduler's rules (:mod:`synth.physics.bounces`) after an impact started at
-    ``t`` (s): ``(end, t_next)``, ``end`` an index of :data:`BOUNCE_ENDS` or :data:`NO_END`
-    and ``t_next`` the next impact's start (s). ``v1``, ``v_out``: the first impact's and the
-    take-off speed (m/s); ``g``: m/s^2; ``separation``: the time to separation (s);
-    ``energy_floor``: the lowest kinetic energy relative to the first; ``t_max``: s."""
+    """The bounce rules after an impact started at ``t`` (s): ``(end, t_next)``, an index of
+    :data:`BOUNCE_ENDS` or :data:`NO_END` and the next start (s). Speeds ``v1``, ``v_out``
+    m/s, ``g`` m/s^2, ``separation`` s, ``energy_floor`` relative to the first, ``t_max`` s."""
     if not success:
         return END_SOLVER_FAILURE, t
     if settled or restitution <= 0.0:
@@ -270,8 +241,7 @@ def _copy_rows(source, start, stop, target, at):
 
 @compiled(inline="always")
 def _grown(results, rows, used, size):
-    """Copies of :func:`impacts_explicit`'s arrays for ``size`` impacts, the first ``used``
-    kept (``rows`` one longer)."""
+    """Copies of the series' arrays for ``size`` impacts, the first ``used`` kept."""
     grown = np.empty((size, results.shape[1]))
     _copy_rows(results, 0, used, grown, 0)
     r = np.zeros(size + 1, dtype=np.int64)
@@ -282,18 +252,12 @@ def _grown(results, rows, used, size):
 
 @compiled()
 def impacts_explicit(L, rtol, auto, v1, t1, rules):
-    """The impacts of a drop of the :data:`Lumped` parameters ``L`` by DOP853, strung together
-    by :func:`bounce_end` under the :data:`Rules` ``rules`` in one compiled call
-    (``max_impacts = 1``: ``impact``'s explicit path). The first at ``v1`` (m/s) starts at
-    ``t1`` (s). Handed over (``END_HANDED_OVER``) before an impact for Radau IIA (``auto``)
-    or whose contact time reaches ``rules.tau_edge`` (s). Returns ``(count, end, t, v,
-    results, hists, rows)``: the :data:`BOUNCE_ENDS` index, start (s) and speed (m/s) of the
-    impact handed over, the results with each impact's start and speed in the columns
-    ``R_T1`` and ``R_V1``, and the dense outputs, impact ``i``'s in ``hists[rows[i]:rows[i +
-    1]]``."""
+    """The impacts of a drop of ``L`` by DOP853 under ``rules``, in one compiled call; the
+    first at ``v1`` (m/s) at ``t1`` (s). Hands over (``END_HANDED_OVER``) before an impact
+    needing Radau IIA or reaching ``rules.tau_edge`` (s). Returns ``(count, end, t, v,
+    results, hists, rows)``; impact ``i``'s dense output is ``hists[rows[i]:rows[i + 1]]``."""
     max_impacts = rules.max_impacts
-    # grown by doubling up to max_impacts: a drop's impacts are not known in advance, and
-    # arrays of max_impacts rows would hold megabytes for a series of a few impacts
+    # grown by doubling: max_impacts rows would hold megabytes for a few impacts
     capacity = min(max_impacts, 64)
     results = np.empty((capacity, R_V1 + 1))
     rows = np.zeros(capacity + 1, dtype=np.int64)
@@ -303,8 +267,6 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
     t = t1
     v = v1
     while count < max_impacts:
-        # the automatic choice takes Radau IIA above STIFF_LAMBDA, or where DOP853 reaches
-        # its step limit: the caller's
         P, sc = scales(L, v)
         if auto and P.lam > STIFF_LAMBDA:
             end = END_HANDED_OVER
@@ -324,8 +286,7 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
         if count == results.shape[0]:
             capacity = min(2 * capacity, max_impacts)
             results, rows = _grown(results, rows, count, capacity)
-        # element by element: a slice assignment compiles numba's shape-mismatch error
-        # path (message formatting), seconds of first-use compile for nothing
+        # element by element: a slice assignment compiles numba's shape-error path (seconds)
         first = rows[count]
         top = first + hist.shape[0]
         if top > hists.shape[0]:
@@ -356,12 +317,10 @@ ONE_IMPACT = Rules(0.0, math.inf, 1, math.inf, math.inf)
 
 
 def impact(L, v_in, rtol, method):
-    """One impact of the :data:`Lumped` parameters ``L`` (checked) at ``v_in`` (m/s): the
-    equations scaled by Zener's time ``theta`` and length ``theta v0`` (``v0 = v_in +
-    v_free``), integrated by DOP853 or Radau IIA (``method``: AUTO takes Radau above
-    ``STIFF_LAMBDA`` or after ``EXPLICIT_STEP_LIMIT`` explicit steps; two kernels, so a scene
-    compiles only the one it uses) to the local tolerance ``rtol``. Returns ``(result,
-    hist)``: the fields ``R_*`` and the dense output."""
+    """One impact of ``L`` at ``v_in`` (m/s), scaled by Zener's time ``theta`` and length
+    ``theta v0`` (``v0 = v_in + v_free``), by DOP853 or Radau IIA (``method``; AUTO takes
+    Radau above ``STIFF_LAMBDA`` or after ``EXPLICIT_STEP_LIMIT`` steps) to ``rtol``.
+    Returns ``(result, hist)``."""
     if method != RADAU:
         announce("contact")
         count, _, _, _, results, hists, _ = impacts_explicit(
@@ -375,8 +334,7 @@ def impact(L, v_in, rtol, method):
 
 @compiled(inline="always")
 def scales(L, v_in):
-    """The law (:data:`~.equations.Law`) and :data:`~.outcome.Scales` of an impact of ``L``
-    at ``v_in`` (m/s)."""
+    """The law and scales of an impact of ``L`` at ``v_in`` (m/s)."""
     v0 = v_in + L.v_free
     theta = (L.m / (L.K * v0 ** (L.n - 1.0))) ** (1.0 / (L.n + 1.0))
     lam = L.beta * L.m / theta
@@ -388,9 +346,7 @@ def scales(L, v_in):
 
 @compiled()
 def scaled_yield(delta_y, L, v0, theta):
-    """The yield penetration ``delta_y`` over the length scale ``theta v0`` (m over m): None
-    without a yield (``delta_y`` None, the kernels compiled without it), inf where this
-    impact cannot reach it (:func:`yield_reachable`)."""
+    """Yield penetration over ``theta v0``: None without yield, inf where out of reach."""
     if delta_y is None:
         return None
     if not yield_reachable(delta_y, L.K, L.m, L.g, L.beta, v0):
@@ -400,10 +356,9 @@ def scaled_yield(delta_y, L, v0, theta):
 
 @compiled()
 def yield_reachable(delta_y, K, m, g, beta, v0):
-    """Whether a Hertz contact (``K``, N/m^1.5; ball ``m``, kg; ``g``, m/s^2; admittance
-    ``beta``, m/(N s)) approached at ``v0`` (m/s) can reach the penetration ``delta_y`` (m):
-    the settling function never increases (``equations.py``), so ``(2/5) K delta^(5/2) - m g
-    delta <= m (v0 - beta m g)^2 / 2`` past the static penetration ``(m g / K)^(2/3)``."""
+    """Whether a Hertz contact (``K`` N/m^1.5, ``m`` kg, ``g`` m/s^2, ``beta`` m/(N s)) at
+    ``v0`` (m/s) can reach ``delta_y`` (m): the settling function never increases, so
+    ``(2/5) K delta^(5/2) - m g delta <= m (v0 - beta m g)^2 / 2``."""
     if not delta_y > (m * g / K) ** (2.0 / 3.0):
         return True
     left = 0.4 * K * delta_y * delta_y * math.sqrt(delta_y) - m * g * delta_y
@@ -421,9 +376,7 @@ def impact_implicit(L, v_in, rtol):
 
 @compiled(inline="always")
 def result(e, P, sc, stiff):
-    """The result array of ``impact`` from :func:`finish`'s :data:`~.outcome.End` ``e``, the
-    law ``P`` and the scales ``sc`` (:func:`~.outcome.impact_row` with the law's elastic
-    energy, a yielded contact's on its unloading branch from the peak penetration)."""
+    """The result array of ``impact`` from :func:`finish`'s end ``e`` (yield: unloading energy)."""
     xy = yield_value(P.xy)
     r = impact_row(e, potential(e.x_end, P.n, P.xy, e.x_max if e.x_max > xy else 0.0), sc)
     r[R_STIFF] = 1.0 if stiff else 0.0
@@ -435,9 +388,7 @@ def result(e, P, sc, stiff):
 
 @compiled()
 def pulse(d, separated, times, forces):
-    """The pulse of the dense output ``d`` (``contact_result.DenseOutput``) at
-    ``len(times)`` uniform times over its contact, in s and N, into ``times`` and
-    ``forces``; the ends of a separated contact are 0."""
+    """The pulse of dense output ``d`` at uniform times (s) into ``times``, ``forces`` (N)."""
     S = new_series(d.law.b)
     series_coefficients(d.law, S)
     sample_pulse(Dense(d.hist, S, d.radau, d.law), d.s_contact, times, forces)
@@ -450,9 +401,8 @@ def pulse(d, separated, times, forces):
 
 @compiled()
 def pulse_force_slope(d, step, points, offset, period, samples, out):
-    """Force (N) and its rate (N/s) into ``out[0]`` and ``out[1]`` at the times ``j step`` (s,
-    ``j < points``) and then ``offset + m period`` (s, ``m < samples``): :func:`force_slope_at`
-    in SI units, in one call without temporaries."""
+    """Force (N) and rate (N/s) into ``out`` at times ``j step`` (s, ``j < points``), then
+    ``offset + m period`` (s, ``m < samples``), without temporaries."""
     total = points + samples
     s = np.empty(total)
     for j in range(points):
@@ -470,10 +420,8 @@ def pulse_force_slope(d, step, points, offset, period, samples, out):
 
 @compiled()
 def force_slope_at(d, s, out, slope):
-    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense output
-    ``d`` (``contact_result.DenseOutput``), 0 outside ``[0, s_contact]``, into ``out``; its
-    rate ``df/ds = f_x x' + f_w w'`` into ``slope``, by ``equations.jacobian`` (0 where f is
-    clipped at 0)."""
+    """Dimensionless force at times ``s`` from dense output ``d``, 0 outside ``[0,
+    s_contact]``, into ``out``; its rate ``f_x x' + f_w w'`` into ``slope``."""
     P = d.law
     S = new_series(P.b)
     series_coefficients(P, S)

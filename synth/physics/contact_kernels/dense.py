@@ -1,10 +1,6 @@
-"""The history of a contact's steps, its dense output and the events located on it (numba).
-
-A row per accepted step (row 0: the series start): DOP853's continuous extension of order 7
-(Hairer, Norsett & Wanner, "Solving ODEs I", II.6, as scipy's Dop853DenseOutput) or Radau
-IIA's collocation polynomial (as scipy's RadauDenseOutput). On it the events are located
-(``event_root``: the Illinois method, Dowell & Jarratt, BIT 11, 1971), the peak force found
-and the pulse sampled; also the cubic Hermite tests that see the end of contact in a step.
+"""A contact's step history, dense output and events (numba): DOP853's continuous extension of
+order 7 (Hairer, Norsett & Wanner, "Solving ODEs I", II.6) or Radau IIA's collocation
+polynomial, both as scipy's; events by the Illinois method (Dowell & Jarratt, BIT 11, 1971).
 """
 
 from __future__ import annotations
@@ -31,9 +27,8 @@ H_COEF = 4  # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
 H_XM = H_COEF + 14  # the largest penetration before the step (0 while loading), the yield's
 H_COLS = H_COEF + 15
 
-#: A contact's dense output, the events' and the pulse's one argument: the ``hist`` of its
-#: steps, the start series' coefficients ``S``, whether the steps are Radau IIA's (``radau``,
-#: else DOP853's) and the law ``P`` (``equations.Law``).
+#: A contact's dense output: step ``hist``, series coefficients ``S``, ``radau`` (else
+#: DOP853) and the law ``P``.
 Dense = namedtuple("Dense", ("hist", "S", "radau", "P"))
 
 
@@ -43,8 +38,7 @@ def grow_history(hist, k):
     if k < hist.shape[0]:
         return hist
     new = np.zeros((2 * hist.shape[0], hist.shape[1]))  # see ``start``: no uninitialised column
-    # element by element: a slice assignment compiles numba's shape-mismatch error
-    # path (string formatting), seconds of the first run's compile time
+    # element by element: a slice assignment compiles numba's shape-error path (seconds)
     for i in range(hist.shape[0]):
         for j in range(hist.shape[1]):
             new[i, j] = hist[i, j]
@@ -53,9 +47,8 @@ def grow_history(hist, k):
 
 @compiled()
 def hermite_dips(x0, x1, d0, d1):
-    """True if the cubic Hermite interpolant of x over a step (values x0, x1 > 0; d0, d1 the
-    derivatives times the step) reaches 0 inside it, at its minimum: the ball left and came
-    back within one step (a flight, a parabola the cubic reproduces exactly)."""
+    """True if the cubic Hermite interpolant of x over a step (x0, x1 > 0; d0, d1 scaled
+    derivatives) reaches 0 inside it: the ball left and came back within one step."""
     if not (d0 < 0.0 < d1):
         return False
     a = 2.0 * x0 + d0 - 2.0 * x1 + d1  # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
@@ -80,9 +73,7 @@ def hermite_dips(x0, x1, d0, d1):
 
 @compiled()
 def hermite_root(x0, x1, d0, d1):
-    """Fraction of a step at which the cubic Hermite interpolant of x (values x0 > 0,
-    x1 <= 0; d0, d1 the derivatives times the step) crosses zero, by bisection to 1e-6
-    (it only places the step that is redone to end just past the root)."""
+    """Fraction of a step where x's Hermite interpolant crosses 0, to 1e-6 (places a redo)."""
     a = 0.0
     b = 1.0
     for _ in range(20):
@@ -104,12 +95,8 @@ def hermite_root(x0, x1, d0, d1):
 
 @compiled()
 def yield_fraction(x0, x1, d0, d1, xy, xm, xp):
-    """Fraction of a step (x from x0 to x1, its derivatives times the step d0, d1) on
-    which the yielded contact's law changes (``equations.yield_law``): while it loads past
-    the yield penetration ``xy`` (``xm`` 0), the peak of x (the root of the cubic Hermite
-    interpolant's derivative), from which it unloads; while it unloads, the residual
-    penetration ``xp``, where the force ends. 1 if neither lies inside the step (or if
-    ``xy`` is None, no yield)."""
+    """Fraction of a step at which the yielded law changes: the peak of x past ``xy`` while
+    loading, the residual penetration ``xp`` while unloading; 1 if neither (or ``xy`` None)."""
     if xy is None:
         return 1.0
     if xm == 0.0:
@@ -147,8 +134,7 @@ def radau_dense(hist, k, s):
 
 @compiled()
 def dense_state(D, k, s):
-    """(x, w) at dimensionless time s inside step k of the dense output ``D`` (step 0: the
-    series)."""
+    """(x, w) at time s inside step k of the dense output ``D`` (step 0: the series)."""
     hist = D.hist
     if k == 0:
         return series_eval(D.S, s, D.P.n, D.P.b)
@@ -173,8 +159,7 @@ def dense_state(D, k, s):
 
 @compiled()
 def find_step(hist, nst, s):
-    """The step (row of the first ``nst`` of the history) whose span holds time s: the
-    last one starting at or before s (bisection)."""
+    """The step of the first ``nst`` rows whose span holds time s (bisection)."""
     lo = 0
     hi = nst - 1
     while lo < hi:
@@ -223,14 +208,12 @@ def golden_max(D, nst, lo, hi, which):
     return max(v1, v2)
 
 
-#: Whether a history holds Radau IIA's steps (else DOP853's). numpy booleans, not Python
-#: ones: numba would compile every function of the history once for a literal True, once
-#: for a literal False and once for a run-time flag.
+#: Whether a history holds Radau IIA's steps. numpy booleans: numba would compile every
+#: function once per literal True, literal False and run-time flag.
 DOP853_STEPS = np.bool_(False)
 RADAU_STEPS = np.bool_(True)
 
-#: The event functions of :func:`event`. numpy integers, not Python ints: numba types a
-#: constant int argument as a literal and compiles ``event_root`` once for each value.
+#: Event functions of :func:`event`. numpy integers: numba compiles a literal int once per value.
 END_OF_CONTACT = np.int64(0)
 PEAK_PENETRATION = np.int64(1)
 SETTLING = np.int64(2)
@@ -239,10 +222,8 @@ FORCE_END = np.int64(3)
 
 @compiled()
 def event(which, x, w, P, thr, xm):
-    """The functions whose roots end or mark a contact: 0, the penetration x (end of
-    contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see
-    ``equations.py``); 3, the force's numerator (:func:`force_numerator`, the end of the
-    force pulse). ``xm``: the largest penetration so far (the yield)."""
+    """Event functions: 0, x (end of contact); 1, ``w - lam f`` (peak); 2, ``W - thr`` (settling);
+    3, :func:`force_numerator` (end of the force pulse). ``xm``: the largest penetration so far."""
     if which == 0:
         return x
     if which == 1:
@@ -254,9 +235,8 @@ def event(which, x, w, P, thr, xm):
 
 @compiled()
 def force_numerator(x, w, n, c, b, xy, xm):
-    """The numerator ``x^n (1 + c w) + b x^(1/2) w`` of the lossy force before its clip at 0
-    (``equations.force``: its sign is the force's), or x where ``x <= 0``; with a yield
-    ``xy`` the numerator of ``yield_law``'s, or ``x - xp`` below the residual penetration."""
+    """Numerator of the lossy force before its clip at 0 (its sign is the force's), or x where
+    ``x <= 0``; with a yield, ``yield_law``'s, or ``x - xp`` below ``xp``."""
     if x <= 0.0:
         return x
     if xy is not None:
@@ -270,9 +250,7 @@ def force_numerator(x, w, n, c, b, xy, xm):
 
 @compiled()
 def event_root(D, k, which, thr):
-    """Where the event function ``which`` falls through 0 inside step k (positive at the
-    step's start, not positive at its end): Illinois (modified regula falsi) on the dense
-    output ``D``, to machine precision. If it is not positive at the start, the step's end."""
+    """Where event ``which`` falls through 0 in step k (Illinois); else the step's end."""
     hist = D.hist
     P = D.P
     xm = hist[k, H_XM]
@@ -310,8 +288,7 @@ def event_root(D, k, which, thr):
 
 @compiled()
 def sample_pulse(D, s_contact, times, forces):
-    """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
-    and ``forces``), step by step."""
+    """Pulse f at ``len(times)`` uniform times over [0, s_contact] into ``times``, ``forces``."""
     hist = D.hist
     nh = hist.shape[0]
     n_points = times.shape[0]

@@ -1,11 +1,6 @@
-"""The explicit stepper of the contact: DOP853 with its landing on the end of contact (numba).
-
-DOP853 (Hairer, Norsett & Wanner, "Solving ODEs I", II.10; the coefficients of their
-dop853.f, in ``synth/physics/dop853_tableau.py``; the error norm of scipy's DOP853)
-integrates the non-stiff range from the end of the series start. The end of contact
-is a singularity of the equations (the force ~ (tau - s)^n switches off): steps are
-made to land just past it (``_time_to_end``, ``_landing_factor``), so that no step
-integrates across the kink.
+"""DOP853 stepper of the contact (numba; Hairer, Norsett & Wanner, "Solving ODEs I", II.10, their
+dop853.f coefficients, scipy's error norm). The end of contact is a singularity (the force ~
+(tau - s)^n switches off): steps land just past it so that none integrates across the kink.
 """
 
 from __future__ import annotations
@@ -40,7 +35,7 @@ from synth.physics.contact_kernels.equations import (
     yielded_peak,
 )
 
-# --- DOP853 tableau (Hairer's coefficients, synth/physics/dop853_tableau.py) ------------
+# DOP853 tableau (Hairer's dop853.f)
 _NS = _dop.N_STAGES  # 12
 _A = np.ascontiguousarray(_dop.A[:_NS, :_NS])
 _B = np.ascontiguousarray(_dop.B)
@@ -53,9 +48,8 @@ _A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
 
 @compiled()
 def end_force_factor(w, c, b):
-    """phi of the force phi x^n with which a contact ends at the speed -w (w < 0): 1 + c w
-    for Hunt-Crossley (1 for Hertz), clipped at 0; 0 with the viscoelastic loss, whose force
-    x^(1/2) (x + b x') falls to 0 where x = -b x', before the end: its end is a free flight."""
+    """phi of the end force ``phi x^n`` at speed -w: ``1 + c w`` clipped at 0 (Hertz 1); 0
+    with the viscoelastic loss, whose force ends before the contact (a free flight)."""
     if b != 0.0:
         return 0.0
     return max(0.0, 1.0 + c * w)
@@ -63,20 +57,15 @@ def end_force_factor(w, c, b):
 
 @compiled()
 def _time_to_end(x, w, dx, P):
-    """Time left until the end of contact, predicted after a step that ends with x > 0
-    moving apart (x' = dx < 0), and the separation speed v it implies; (inf, 0) if the
-    ball still moves down.
-
-    Near the end the force is f = phi x^n, phi = end_force_factor (Hertz: 1), and x ~ v sigma
-    with sigma the time left. Integrating u' = f - G (u = -w) and x' = -(u + lam f)
-    back from the end with f = phi (v sigma)^n gives, to leading order in the force,
+    """Time left to the end of contact after a step ending with x > 0, dx < 0, and the implied
+    separation speed v; (inf, 0) while the ball moves down. With ``f = phi (v sigma)^n`` near
+    the end, to leading order in the force:
 
         x = u sigma - G sigma^2 / 2 + phi v^n (lam sigma^(n+1) / (n+1) + sigma^(n+2) / (n+2)),
         v = u - G sigma + phi v^n sigma^(n+1) / (n+1),
 
-    solved for sigma by Newton's method from sigma = x / (-x'). The neglected terms
-    are of relative order sigma^(n+1): the prediction is sharp where it matters, close
-    to the end.
+    solved by Newton from ``sigma = x / (-x')``; relative error ~ sigma^(n+1), sharp near the
+    end.
     """
     lam, G, n = P.lam, P.G, P.n
     u = -w
@@ -104,9 +93,8 @@ def _time_to_end(x, w, dx, P):
 
 @compiled()
 def _switch_fraction(x0, w0, x1, w1, dx0, dw0, dx1, dw1, h, c, b):
-    """Fraction of a step (from (x0, w0) to (x1, w1), rates dx, dw at its ends, length h) at
-    which the viscoelastic force switches off or on: where q = x (1 + c w) + b w changes
-    sign (cubic Hermite estimate); 1 if it does not."""
+    """Fraction of a step where the viscoelastic force switches off or on (``q = x (1 + c w) +
+    b w`` changes sign, cubic Hermite estimate); 1 if it does not."""
     q0 = x0 * (1.0 + c * w0) + b * w0
     q1 = x1 * (1.0 + c * w1) + b * w1
     if (q0 > 0.0) == (q1 > 0.0):
@@ -120,13 +108,8 @@ def _switch_fraction(x0, w0, x1, w1, dx0, dw0, dx1, dw1, h, c, b):
 
 @compiled()
 def _landing_factor(n):
-    """kappa(n) of the error of a DOP853 step that ends where the force switches off.
-
-    There f ~ (v (tau - s))^n, and w' = G - f gives the step's stages the derivatives
-    -v^n h^n (1 - C_i)^n: scipy's error norm of that singular part alone (the rest of
-    the solution is smooth) is kappa v^(n-1) h^(n+1) / rtol, relative to |w| = v.
-    0 for an integer n (a polynomial, integrated exactly).
-    """
+    """kappa(n): scipy's error norm of a step ending where ``f ~ (v (tau - s))^n`` switches off
+    is ``kappa v^(n-1) h^(n+1) / rtol``; 0 for an integer n (integrated exactly)."""
     e5 = 0.0
     e3 = 0.0
     for i in range(_NS + 1):
@@ -149,8 +132,7 @@ def _weighted(weights, K, m, q):
 
 @compiled(inline="always")
 def _stage(A, row, K, i, x, w, h, P, xm):
-    """Stage ``i`` of a step from ``(x, w)`` (its coefficients ``A[row]``) into ``K[i]``:
-    only x and w enter the right-hand side (I2 and the loss are quadratures)."""
+    """Stage ``i`` from ``(x, w)`` into ``K[i]`` (I2 and the loss are quadratures)."""
     a0 = 0.0
     a1 = 0.0
     for j in range(i):
@@ -161,10 +143,8 @@ def _stage(A, row, K, i, x, w, h, P, xm):
 
 @compiled()
 def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
-    """DOP853 on (x, w, I2, L) of the law ``P`` (``equations.Law``) from time s with state
-    (x, w, q2, q3) and first step h, row 0 of the history ``hist`` (the series) filled in.
-    Returns (status, s_end, x, w, I2, L, n_rows, n_rejected, hist), ``n_rows`` the rows of
-    the history in use."""
+    """DOP853 on (x, w, I2, L) of law ``P`` from time s, state (x, w, q2, q3), first step h,
+    history row 0 filled. Returns (status, s_end, x, w, I2, L, n_rows, n_rejected, hist)."""
     lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
     xp = 0.0  # the residual penetration, where the unloading force ends
@@ -174,8 +154,7 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2
-    # past the first penetration peak or the end of an overdamped creep (rise_ended): a
-    # settled pulse keeps its landing
+    # past the first peak or an overdamped creep's end: a settled pulse keeps its landing
     peaked = False
     rejected = False
     h_rej = 0.0
@@ -192,7 +171,6 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             return MAX_STEPS, s, x, w, q2, q3, nst, nrej, hist
         if not (h >= 1e-14 * s and h >= 1e-300):
             return STEP_TOO_SMALL, s, x, w, q2, q3, nst, nrej, hist
-        # one DOP853 step
         for i in range(1, _NS):
             _stage(_A, i, K, i, x, w, h, P, xm)
         xn = x + h * _weighted(_B, K, _NS, 0)
@@ -200,9 +178,8 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         q2n = q2 + h * _weighted(_B, K, _NS, 2)
         q3n = q3 + h * _weighted(_B, K, _NS, 3)
         K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = rhs(P, xn, wn, xm)
-        # error estimate (scipy's DOP853 norm) on x, w and I2; with the viscoelastic loss
-        # on L too: its force falls to 0 before the end of contact, but the loss there,
-        # L' = -x^n x', ends like (tau - s)^n, and the landing steps are sized for it too
+        # scipy's norm on x, w, I2, and with the viscoelastic loss on L too: L' = -x^n x'
+        # ends like (tau - s)^n, and the landing steps are sized for it
         components = 4.0 if b != 0.0 else 3.0
         old = (x, w, q2, q3)
         new = (xn, wn, q2n, q3n)
@@ -225,9 +202,8 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                 landing = False
                 rejected = True
                 continue
-            # Near the end of the contact the local error falls more slowly than h^8.
-            # After a second rejection at the same point, shrink by the order observed
-            # between the two trials instead of the nominal one.
+            # near the end the error falls slower than h^8: after a second rejection at the
+            # same point, shrink by the order observed between the two trials
             p = 8.0
             if rejected and h_rej > h and err_rej > err and math.isfinite(err):
                 p = min(8.0, max(1.0, math.log(err_rej / err) / math.log(h_rej / h)))
@@ -239,8 +215,7 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             rejected = True
             continue
         if xn > 0.0 and hermite_dips(x, xn, h * K[0, 0], h * K[_NS, 0]):
-            # The ball separated and landed again inside the step: redo it shorter, so
-            # that the end of contact is seen (and located) by the test below.
+            # separated and landed again inside the step: redo it shorter
             h *= 0.5
             nrej += 1
             landing = False
@@ -248,16 +223,13 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             continue
         th = 1.0
         if xn < 0.0:
-            # The step crosses the end of contact, where the force switches off: its
-            # error estimate and dense output assume a smooth right-hand side and are
-            # not to be trusted across that kink. Redo it to land just past the root
-            # (cubic Hermite estimate), so that its stages see a smooth problem.
+            # the step crosses the end of contact, a kink its error estimate and dense output
+            # do not trust: redo it to land just past the root (cubic Hermite estimate)
             th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
         th = min(th, yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], P.xy, xm, xp))
         if b != 0.0:
-            # The viscoelastic force x^(1/2) (x (1 + c w) + b w) / D switches off (or on)
-            # where its second factor changes sign, inside the contact: a kink of the same
-            # kind, on which the step is made to land as well (the earlier of the two).
+            # the viscoelastic force switches off (or on) inside the contact: a kink of the
+            # same kind, landed on as well (the earlier of the two)
             th = min(
                 th,
                 _switch_fraction(
@@ -268,7 +240,6 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             h *= th * 1.0001 + 1e-9
             nrej += 1
             continue
-        # accepted: dense output coefficients for x and w
         hist = grow_history(hist, nst)
         for i in range(_NS + 1, 16):
             _stage(_A_EXTRA, i - _NS - 1, K, i, x, w, h, P, xm)
@@ -313,11 +284,8 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         h *= fac
         landing = False
         if K[0, 0] < 0.0:
-            # Moving apart. The end of contact is a singularity (the force ~ (tau - s)^n
-            # switches off), and a step ending there has an error ~ h^(n+1) of known
-            # size (``_landing_factor``). If this step would reach the end, make it land
-            # just past it, or, if the end is farther than a landing may start from,
-            # stop short at a point from which it may.
+            # moving apart: a step ending at the singular end has an error ~ h^(n+1) of known
+            # size (_landing_factor): land just past the end, or stop where a landing may start
             sig = x / -K[0, 0]  # a first estimate, sharpened near the end
             reach = land_max
             if h >= 0.5 * sig:
@@ -333,8 +301,7 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                     h = sig * 1.0001
                     landing = True
             if not landing and sig < np.inf:
-                # the error constant grows as the end nears: keep the step's ratio to
-                # the time left, rather than its length
+                # the error constant grows as the end nears: keep the step's ratio to the time left
                 h *= sig / (sig + h_done)
                 if h >= sig:
                     h = max(sig - 0.9 * reach, 0.5 * sig)

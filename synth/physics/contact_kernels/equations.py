@@ -25,9 +25,8 @@ from collections import namedtuple
 
 from synth.compilation import compiled
 
-#: The dimensionless law of one contact (module docstring), the kernels' one argument for it:
-#: ``lam``, ``G``, ``n``, the losses ``c`` and ``b``, the yield penetration ``xy`` (None: no
-#: yield, the kernels compiled without it; inf: not reached).
+#: Dimensionless law of one contact: ``lam``, ``G``, ``n``, losses ``c``, ``b``, yield
+#: penetration ``xy`` (None: compiled without yield; inf: not reached).
 Law = namedtuple("Law", ("lam", "G", "n", "c", "b", "xy"))
 
 # Status codes shared with synth.physics.contact.
@@ -49,31 +48,19 @@ def power(x, n):
 
 @compiled()
 def unloading_branch(xy, xm):
-    """The elastic unloading of Thornton's contact from the largest penetration ``xm``
-    past the yield penetration ``xy`` (docs/physics.md, "Yield of the contact"): the
-    residual penetration ``xp`` and ``rho = sqrt(R_p / R)`` of ``f = rho (x - xp)^(3/2)``.
-
-    Loading reaches ``f_m = xy^(1/2) (3 xm - xy) / 2``; the contact radius there is the
-    loading one, ``a_p^2 = R delta_m``, and the unloading is Hertz's with the radius
-    ``R_p = 4 E* a_p^3 / (3 F_m)`` through ``(xm, f_m)``: ``R_p / R = xm^(3/2) / f_m`` and
-    ``xm - xp = f_m / xm^(1/2)`` (C. Thornton, J. Appl. Mech. 64 (1997) 383)."""
+    """Thornton's elastic unloading from ``xm > xy``: residual penetration ``xp`` and ``rho =
+    sqrt(R_p / R)`` of ``f = rho (x - xp)^(3/2)``, through ``(xm, f_m)``, ``f_m = xy^(1/2) (3
+    xm - xy) / 2`` (C. Thornton, J. Appl. Mech. 64 (1997) 383)."""
     fm = math.sqrt(xy) * (1.5 * xm - 0.5 * xy)
     return xm - fm / math.sqrt(xm), math.sqrt(xm * math.sqrt(xm) / fm)
 
 
 @compiled()
 def yield_law(x, xy, xm):
-    """Thornton's elastic-perfectly plastic Hertz contact, dimensionless (x > 0, the
-    equations' ``n = 3/2``): ``(a, r, da, dr)``, the elastic-plastic force ``a``, the
-    viscous factor ``r`` (the contact radius over ``sqrt(R theta v0)``: the viscoelastic
-    force is ``b r x'``, Kuwabara & Kono's ``A 2 E* a delta'``) and their x-derivatives.
-
-    ``xy`` is the penetration at which the Hertz peak pressure reaches the limiting
-    pressure ``p_y`` (inf: elastic); ``xm`` the largest penetration of the contact so far
-    (0 while it loads). Loading: Hertz ``x^(3/2)`` up to ``xy``, then the tangent line
-    ``xy^(1/2) (3 x - xy) / 2`` (``F = F_y + pi p_y R (delta - delta_y)``), contact radius
-    ``sqrt(x)``; unloading from ``xm > xy``: :func:`unloading_branch`, contact radius
-    ``rho (x - xp)^(1/2)``, both 0 below the residual penetration ``xp``."""
+    """Thornton's elastic-perfectly plastic Hertz contact (x > 0, n = 3/2): ``(a, r, da,
+    dr)``, force ``a``, viscous factor ``r`` (contact radius over ``sqrt(R theta v0)``) and
+    their x-derivatives. Loading: ``x^(3/2)`` up to ``xy``, then ``xy^(1/2) (3 x - xy) / 2``;
+    unloading from ``xm > xy``: :func:`unloading_branch`, 0 below ``xp``."""
     top = max(x, xm)
     if top <= xy:
         r = math.sqrt(x)
@@ -92,11 +79,7 @@ def yield_law(x, xy, xm):
 
 @compiled()
 def yield_potential(x, xy, xm):
-    """The elastic energy (dimensionless) that :func:`yield_law` stores at ``x``: Hertz's
-    ``x^(5/2) / (5/2)`` without yield; while loading past ``xy`` the work of the loading
-    law; on the unloading branch ``rho (x - xp)^(5/2) / (5/2)`` (0 below ``xp``). The work
-    of loading to ``xm`` less the unloading branch's energy at ``xm`` is the plastic work
-    (:func:`plastic_work`)."""
+    """Elastic energy (dimensionless) stored at ``x`` on the branch of ``xm``."""
     if x <= 0.0:
         return 0.0
     if max(x, xm) <= xy:
@@ -112,9 +95,7 @@ def yield_potential(x, xy, xm):
 
 @compiled()
 def plastic_work(xy, xm):
-    """The work (dimensionless) dissipated by the plastic flow of a loading to ``xm``
-    (0 below the yield penetration ``xy``): the loading law's work less the energy the
-    unloading branch from ``xm`` gives back."""
+    """Work (dimensionless) lost to plastic flow in a loading to ``xm``."""
     if xm <= xy:
         return 0.0
     fm = math.sqrt(xy) * (1.5 * xm - 0.5 * xy)
@@ -124,9 +105,7 @@ def plastic_work(xy, xm):
 
 @compiled()
 def yield_law_arrays(x, xy, xm, a, r, da, dr):
-    """:func:`yield_law` at each ``x[i]`` (0 where ``x[i] <= 0``) with the largest
-    penetration ``xm[i]`` so far, into ``a``, ``r``, ``da`` and ``dr`` (the modal contact's
-    pulse between its steps, in metres with ``K = 1``: the law is homogeneous)."""
+    """:func:`yield_law` at each ``x[i]``, ``xm[i]`` (in metres with ``K = 1``: homogeneous)."""
     for i in range(x.shape[0]):
         if x[i] > 0.0:
             a[i], r[i], da[i], dr[i] = yield_law(x[i], xy, xm[i])
@@ -136,11 +115,8 @@ def yield_law_arrays(x, xy, xm, a, r, da, dr):
 
 @compiled()
 def elastic_terms(x, n, b, xy, xm):
-    """``(a, r, da, dr)`` at ``x > 0``: the law's elastic force ``x^n`` and viscous factor
-    ``x^(1/2)`` (0 without the viscoelastic loss ``b``) and their x-derivatives, or with a
-    finite yield penetration ``xy`` (``xm`` the largest penetration so far)
-    :func:`yield_law`'s. ``xy`` None: no yield, its code pruned at compile time (numba
-    prunes on an argument's type, so every branch on ``xy`` takes it as an argument)."""
+    """``(a, r, da, dr)`` at ``x > 0`` (:func:`yield_law`'s with a finite ``xy``). ``xy`` None
+    prunes the yield code at compile time: numba prunes on an argument's type."""
     if xy is not None:
         if xy != math.inf:
             return yield_law(x, xy, xm)
@@ -153,9 +129,7 @@ def elastic_terms(x, n, b, xy, xm):
 
 @compiled()
 def force(x, w, lam, n, c, b, xy=None, xm=0.0):
-    """Dimensionless contact force f and its elastic part a (both 0 out of contact):
-    ``f = max(0, (a (1 + c w) + b r w) / (1 + c lam a + b lam r))`` with ``a``, ``r`` of
-    :func:`elastic_terms` (the module docstring)."""
+    """Dimensionless contact force f and its elastic part a (0 out of contact)."""
     if x <= 0.0:
         return 0.0, 0.0
     a, r, _, _ = elastic_terms(x, n, b, xy, xm)
@@ -186,10 +160,7 @@ def rhs(P, x, w, xm):
 
 @compiled()
 def jacobian(P, x, w, xm):
-    """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
-
-    With ``f = N / D`` (``N = a (1 + c w) + b r w``, ``D = 1 + lam (c a + b r)``):
-    ``f_x = (N_x - f D_x) / D``, ``f_w = (c a + b r) / D``; 0 where f is clipped at 0."""
+    """Jacobian ``(j11, j12, j21, j22)`` of (x', w'); 0 where f is clipped at 0."""
     if x <= 0.0:
         return 0.0, 1.0, 0.0, 0.0
     a, r, da, dr = elastic_terms(x, P.n, P.b, P.xy, xm)
@@ -217,8 +188,7 @@ def jacobian(P, x, w, xm):
 
 @compiled()
 def potential(x, n, xy, xm):
-    """The elastic energy (dimensionless) stored at ``x``: ``x^(n+1) / (n+1)``, or with a
-    finite yield penetration ``xy`` :func:`yield_potential` on the branch of ``xm``."""
+    """Elastic energy (dimensionless) stored at ``x`` on the branch of ``xm``."""
     if xy is not None:
         if xy != math.inf:
             return yield_potential(x, xy, xm)
@@ -236,8 +206,7 @@ def residual_penetration(xy, xm):
 
 @compiled()
 def settling_energy(P, x, w, xm):
-    """Settling function W of the module docstring; with a yield the height is measured from
-    the residual penetration, where the force ends (the ball leaves from there)."""
+    """Settling function W; with a yield, heights from the residual penetration."""
     u = P.lam * P.G - w
     if x <= 0.0:
         return 0.5 * u * u
@@ -254,9 +223,7 @@ def yield_value(xy):
 
 @compiled()
 def yielded_peak(xy, x, dx, xm, xp, loss):
-    """``(xm, xp, loss)`` after a step that ends at ``x`` with the rate ``dx``: at a peak past
-    the yield penetration ``xy`` the contact unloads from it (force and contact radius are
-    continuous there), its plastic work lost; else unchanged."""
+    """``(xm, xp, loss)`` after a step to ``x`` at rate ``dx``: a peak past ``xy`` unloads."""
     if xy is not None:
         if xm == 0.0 and x > xy and dx <= 0.0:
             return x, unloading_branch(xy, x)[0], loss + plastic_work(xy, x)
@@ -269,10 +236,8 @@ EPS = 2.220446049250313e-16
 
 @compiled()
 def rise_ended(dx, w, atol):
-    """True if the penetration rate ``dx = x' = w - lam f`` (at speed ``w``) is not
-    positive to the absolute tolerance ``atol`` of the state and to the rounding of its two
-    terms ``w`` and ``lam f = w - dx``: past the penetration's peak, or at the end of an
-    overdamped landing, which creeps up to the static penetration without a peak."""
+    """True if ``dx = w - lam f`` is not positive to ``atol`` and the rounding of ``w`` and
+    ``lam f``: past the peak, or at the end of an overdamped landing (no peak)."""
     return dx <= atol + 4.0 * EPS * (abs(w) + abs(w - dx))
 
 

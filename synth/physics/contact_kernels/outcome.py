@@ -1,6 +1,4 @@
-"""The result array of one impact: its fields' order and :func:`impact_row`, which fills it
-for both the power laws' and the thin shell's drivers (SI results and the energy balance of
-docs/physics.md, "Hertz contact")."""
+"""The result array of one impact: field order and :func:`impact_row` (SI, energy balance)."""
 
 from __future__ import annotations
 
@@ -37,36 +35,30 @@ R_XY = 21  # dimensionless yield penetration delta_y / (theta v0) (power laws; i
 N_RESULT = 22
 
 
-#: How a contact ended, dimensionless (``finish`` and the shell's driver): its ``status``;
-#: ``s_contact`` the time to separation (or to the proof that the ball cannot separate),
-#: ``s_force`` the force pulse's end; the state ``s_end, w_end, x_end`` of the energy balance,
-#: its quadratures ``I2 = Int f^2`` (``i2``) and the loss' work ``loss``; the largest
-#: penetration ``x_max`` and force ``f_max``; the accepted steps ``n_steps``.
+#: How a contact ended (dimensionless): ``status``; ``s_contact`` (separation, or proof it
+#: cannot), ``s_force`` (force pulse's end); ``s_end, w_end, x_end``; ``i2 = Int f^2``,
+#: ``loss``; ``x_max``, ``f_max``; ``n_steps``.
 End = namedtuple("End", "status s_contact s_force s_end w_end x_end i2 loss x_max f_max n_steps")
-#: The scales of one impact: the mass ``m`` (kg), the impact and approach speeds ``v_in`` and
-#: ``v0`` (m/s), the time ``theta`` (s) and force ``f_scale`` (N), Zener's ``lam`` and the
-#: dimensionless gravity ``G``.
+#: Scales of one impact: ``m`` (kg), ``v_in``, ``v0`` (m/s), ``theta`` (s), ``f_scale`` (N),
+#: Zener's ``lam``, dimensionless gravity ``G``.
 Scales = namedtuple("Scales", "m v_in v0 theta lam G f_scale")
 
 
 @compiled(inline="always")
 def impact_row(e, elastic_end, sc):
-    """The result array (fields ``R_*``; the law's own ones left 0) of the contact that ended
-    as ``e`` (:data:`End`; ``elastic_end`` the law's elastic energy at ``x_end``) at the
-    scales ``sc`` (:data:`Scales`)."""
+    """The result array of the contact that ended as ``e`` at the scales ``sc``."""
     w_end, x_end, G, lam, v0, theta = e.w_end, e.x_end, sc.G, sc.lam, sc.v0, sc.theta
     separated = e.status == SEPARATED
     tiny_rebound = separated and w_end > 0.0
     if tiny_rebound:
-        # The contact ended with the ball still (barely) approaching: the rebound is
-        # below the solver's absolute resolution (atol of v0).
+        # still (barely) approaching: the rebound is below the absolute resolution
         w_end = 0.0
     i1 = 1.0 - w_end + G * e.s_end  # from w' = G - f
     # energy balance, dimensionless (docs/physics.md, "Hertz contact", in the plate's frame)
     lhs = 0.5 * w_end * w_end + elastic_end - G * x_end - 0.5
     rhs = G * lam * i1 - lam * e.i2 - e.loss
-    # relative to the energy exchanged: the arrival energy, or the work of gravity and the
-    # energy carried away when they are larger (a slow, heavy ball sinking with the plate)
+    # relative to the energy exchanged: arrival energy, or gravity's work and the energy
+    # carried away when larger (a slow heavy ball sinking with the plate)
     scale = max(0.5, abs(G * lam * i1), lam * e.i2, abs(e.loss), abs(G * x_end))
     v_out = -w_end * v0 if separated else 0.0
     r = np.zeros(N_RESULT)

@@ -1,8 +1,6 @@
-"""The implicit stepper of the contact: the 3-stage Radau IIA method of order 5 (numba).
-
-Radau IIA (Hairer & Wanner, "Solving ODEs II", IV.8, as scipy.integrate.Radau) integrates
-the stiff range (lam >> 1); its Newton iteration solves the transformed real and complex 2x2
-systems in closed form.
+"""Radau IIA stepper of the contact, 3 stages, order 5 (numba; Hairer & Wanner, "Solving ODEs
+II", IV.8, as scipy.integrate.Radau), for the stiff range (lam >> 1); Newton's 2x2 systems
+solved in closed form.
 """
 
 from __future__ import annotations
@@ -37,7 +35,7 @@ from synth.physics.contact_kernels.equations import (
     yielded_peak,
 )
 
-# --- Radau IIA (order 5) constants, as in scipy.integrate.Radau ------------------------
+# Radau IIA (order 5) constants, as scipy.integrate.Radau
 _S6 = 6.0**0.5
 _RC = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
 _RE = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0
@@ -91,10 +89,7 @@ def _newton_rhs(F, Wt, q, mr, mc):
 
 @compiled()
 def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
-    """3-stage Radau IIA on (x, w); I2 and the loss are its collocation quadratures.
-
-    Arguments and result as ``integrate_dop853``'s (the yield's branch switched likewise).
-    """
+    """Radau IIA on (x, w), I2 and the loss by collocation; as ``integrate_dop853``."""
     lam, G, c, b = P.lam, P.G, P.c, P.b
     xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
     xp = 0.0  # the residual penetration, where the unloading force ends
@@ -239,7 +234,6 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             nrej += 1
             rejected = True
             continue
-        # accepted
         hist = grow_history(hist, nst)
         hist[nst, H_T0] = s
         hist[nst, H_H] = h

@@ -1,13 +1,7 @@
-"""The series start of a contact: the solution near first touch as a series (numba).
-
-x^n is not smooth at x = 0, so a Runge-Kutta method would have to start with tiny
-steps. Instead the solution of the equations (``equations.py``) is expanded in powers
-s^(i + j n) (a series in s and s^n, see ``series_coefficients``; powers of series by
-J.C.P. Miller's recurrence, Knuth, TAOCP 2, 4.7) and taken from that series up to the
-point ``s1`` where its truncation error is below the local tolerance
-(``series_start``); the integrators take over from there. The viscoelastic loss
-(b > 0, n = 3/2) starts as b x^(1/2) w ~ s^(1/2), below every power of that series: its
-solution is a series in s^(1/2) (``half_series_coefficients``).
+"""The series start of a contact (numba): ``x^n`` is not smooth at first touch, so the
+solution is expanded in powers s^(i + j n) (powers of series by J.C.P. Miller's recurrence,
+Knuth, TAOCP 2, 4.7) and used up to where its truncation error reaches the tolerance. The
+viscoelastic loss (n = 3/2) starts as ``b x^(1/2) w ~ s^(1/2)``: a series in s^(1/2).
 """
 
 from __future__ import annotations
@@ -29,16 +23,14 @@ SERIES_MAX_TIME = 1.0
 HALF_SERIES_DEGREE = 19
 #: Columns of the coefficient arrays, room for either series.
 SERIES_COLS = max(SERIES_SIZE, HALF_SERIES_DEGREE + 1)
-#: The truncation error of the series in s^(1/2) is estimated from its terms of this many
-#: last degrees: each link of the recurrences raises the degree by at most 3, so the band
-#: holds the leading term of every chain, with a margin.
+#: Last degrees of the s^(1/2) series whose terms estimate its error: a recurrence link raises
+#: the degree by at most 3, so the band holds every chain's leading term.
 HALF_SERIES_BAND = 5
 
 
 @compiled()
 def new_series(b):
-    """An array for the start series' coefficients: ``SERIES_COLS`` columns for the series in
-    s^(1/2) (``b > 0``), else ``SERIES_SIZE`` (half of what every impact zeroes)."""
+    """Coefficient array: ``SERIES_COLS`` columns with ``b > 0``, else ``SERIES_SIZE``."""
     return np.empty((7, SERIES_SIZE, SERIES_COLS if b != 0.0 else SERIES_SIZE))
 
 
@@ -56,22 +48,15 @@ def series_len(j, n):
 
 @compiled()
 def half_series_coefficients(lam, G, c, b, S):
-    """Coefficients of the solution at first touch as a series in sigma = s^(1/2), for the
-    viscoelastic loss (n = 3/2, b > 0; any Hunt-Crossley c as well).
+    """Coefficients of the series in sigma = s^(1/2) (n = 3/2, b > 0, any c).
 
-    With x = sigma^2 Y, x^(1/2) = sigma R (R^2 = Y), x^(3/2) = sigma^3 A (A = R Y), x' = P
-    and w = W, all series in sigma, the force f = x^(3/2) (1 + c x') + b x^(1/2) x' is
+    With x = sigma^2 Y, x^(1/2) = sigma R, x^(3/2) = sigma^3 A, x' = P, w = W:
 
         F[k] = T[k-3] + b Q[k-1],   T = A (1 + c P),  Q = R P,
-
-    so F[0] = 0 and F[1] = b: the force starts like b s^(1/2). Since d/ds = d/dsigma /
-    (2 sigma), x' = w - lam f and w' = G - f give term by term
-
         W[k] = 2 (G [k = 2] - F[k-2]) / k  (W[0] = 1, W[1] = 0),   P[k] = W[k] - lam F[k],
         Y[k] = 2 P[k] / (k + 2),   R[k] = (Y[k] - sum_{0<i<k} R[i] R[k-i]) / 2  (R[0] = 1),
 
-    each from lower degrees, so one pass in k gives them all, exactly, up to
-    ``HALF_SERIES_DEGREE``. Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q.
+    each from lower degrees. Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q.
     """
     S[:] = 0.0
     Y = S[0, 0]
@@ -127,10 +112,7 @@ def half_series_eval(S, s):
 
 @compiled()
 def half_series_start(rtol, S, s_max):
-    """``series_start`` for the series in s^(1/2) (coefficients in ``S``): the error
-    estimate from the terms of its last ``HALF_SERIES_BAND`` degrees, and I2 = sum (F F)[k]
-    2 s^((k+2)/2) / (k + 2) and L = sum ((F - s^(3/2) A) P)[k] 2 s^((k+2)/2) / (k + 2)
-    (ds = 2 sigma dsigma), with the terms up to the degree of those of x."""
+    """``series_start`` for the series in s^(1/2); I2 and L term by term (ds = 2 sigma dsigma)."""
     A = S[2, 0]
     F = S[3, 0]
     P = S[4, 0]
@@ -155,9 +137,7 @@ def half_series_start(rtol, S, s_max):
 
 @compiled()
 def start_time(S, rtol, n, b):
-    """Where the truncation error ``e(s)`` of the start series (coefficients ``S``; in
-    s^(1/2) with the viscoelastic loss ``b``) reaches ``rtol``, by Newton's method in log s
-    from ``SERIES_MAX_TIME`` down (e is convex there): see ``series_start``."""
+    """Where the truncation error reaches ``rtol``: Newton in log s down (e convex there)."""
     s1 = SERIES_MAX_TIME
     for _ in range(30):
         e, de = truncation_error(S, s1, n, b)
@@ -169,10 +149,7 @@ def start_time(S, rtol, n, b):
 
 @compiled()
 def truncation_error(S, s1, n, b):
-    """``(e, s de/ds)`` at ``s1``: the terms of the last ``n + 1`` degrees of the series in
-    s and s^n, ``sum (|X[i, j]| + |W[i, j]|) s^(i + j n)``, which hold every chain's leading
-    term; with the viscoelastic loss (``b``), those of the last ``HALF_SERIES_BAND`` degrees
-    of the series in s^(1/2)."""
+    """``(e, s de/ds)`` at ``s1`` from the last degrees' terms (every chain's leading term)."""
     e = 0.0
     de = 0.0
     if b != 0.0:
@@ -202,28 +179,15 @@ def truncation_error(S, s1, n, b):
 
 @compiled()
 def series_coefficients(P, S):
-    """Coefficients of the solution at first touch as a series in s and s^n; with the
-    viscoelastic loss (b > 0), in s^(1/2) (``half_series_coefficients``).
-
-    Near s = 0 the solution is a power series in the two variables s and b = s^n:
-
-        x = s X,  w = W,  x^n = b A,  f = b F,   with  X = sum_ij X[i, j] s^i b^j, ...
-
-    Integrating w' = G - f and x' = w - lam f term by term (``d`` = i + j n):
+    """Coefficients of the series in s and b = s^n (``d = i + j n``):
 
         W[i, j] = [i = j = 0] + G [i = 1, j = 0] - F[i-1, j-1] / d
         X[i, j] = (W[i, j] - lam F[i, j-1]) / (d + 1)
+        A[i, j] = 1/d sum_{(a,b) != 0} X[a, b] A[i-a, j-b] ((n+1) (a + b n) - d)
 
-    and A = X^n by J.C.P. Miller's recurrence for powers of series (Knuth, TAOCP 2,
-    4.7, eq. 4.7-(6)), here with the degree operator s d/ds, which maps s^i b^j to
-    d s^i b^j (from X (s d/ds) A = n A (s d/ds) X):
-
-        A[i, j] = 1/d sum_{(a,b) != 0} X[a, b] A[i-a, j-b] ((n+1) (a + b n) - d).
-
-    Hertz and power laws: F = A. Hunt-Crossley: F = A (1 + c W) R with
-    R = 1 / (1 + c lam b A). Each coefficient needs only lower degrees, so one pass in
-    order of j, then i, gives them all, exactly. Fills ``S``: X, W, A, F, X (n+1) (i + j n),
-    and for Hunt-Crossley R and A (1 + c W). ``P``: the law (``equations.Law``).
+    (A = X^n by Miller's recurrence, Knuth TAOCP 2, eq. 4.7-(6)). Hertz and power laws: F =
+    A; Hunt-Crossley: F = A (1 + c W) / (1 + c lam b A). With b > 0:
+    ``half_series_coefficients``.
     """
     lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     if b != 0.0:
@@ -280,8 +244,7 @@ def series_coefficients(P, S):
 
 @compiled()
 def series_eval(S, s, n, b):
-    """(x, w) at time s from the start series (nested Horner in s, then in s^n; with the
-    viscoelastic loss, b > 0, ``half_series_eval``)."""
+    """(x, w) at time s from the start series (nested Horner)."""
     if b != 0.0:
         return half_series_eval(S, s)
     sn = power(s, n) if s > 0.0 else 0.0
@@ -303,22 +266,15 @@ def series_eval(S, s, n, b):
 
 @compiled()
 def series_start(P, rtol, S, s_max):
-    """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over: at
-    ``s1`` where the truncation error ``e(s) = sum_band (|X[i, j]| + |W[i, j]|) s^(i + j n)``
-    (the terms of the last ``n + 1`` degrees, which hold every chain's leading term) reaches
-    ``rtol``, by Newton's method in log s from above (e is convex there), at most
-    ``SERIES_MAX_TIME`` and ``s_max`` (before a yield). Returns (s1, x, w, I2, L) at s1, the
-    quadratures term by term. With the viscoelastic loss: ``half_series_start``.
-    """
+    """Fill ``S`` and return ``(s1, x, w, I2, L)`` at ``s1`` where the truncation error
+    reaches ``rtol``, at most ``SERIES_MAX_TIME`` and ``s_max`` (before a yield)."""
     series_coefficients(P, S)
     n, c, b = P.n, P.c, P.b
     if b != 0.0:
         return half_series_start(rtol, S, s_max)
     s1 = min(start_time(S, rtol, n, 0.0), s_max)
     x1, w1 = series_eval(S, s1, n, 0.0)
-    # I2 = int f^2 = sum (F F)[i, j] s^(d + 2n + 1) / (d + 2n + 1) and
-    # L = int b (F - A) x' = sum ((F - A) X')[i, j] s^(d + n + 1) / (d + n + 1),
-    # with their terms up to the degree of those of x (SERIES_DEGREE + 1)
+    # I2 = int f^2, L = int b (F - A) x', term by term up to the degree of x
     b1 = power(s1, n)
     i2 = 0.0
     loss = 0.0

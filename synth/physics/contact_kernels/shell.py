@@ -1,16 +1,12 @@
-"""numba kernels of the thin-shell contact of a hollow ball (private to synth.physics.contact).
-
-The law of docs/physics.md, "Hollow balls", scaled like the power laws (``equations.py``) by
-``theta = sqrt(m / k0)``, ``k0 = k_R + k_g``, and the length ``theta v0``:
+"""numba kernels of a hollow ball's thin-shell contact (docs/physics.md, "Hollow balls"), scaled
+by ``theta = sqrt(m / k0)``, ``k0 = k_R + k_g``, and the length ``theta v0``:
 
     x' = w - lam f,   w' = G - f,   f = max(0, (f_e + a k_s w) / (1 + a k_s lam))
     f_e = r_R min(x, sqrt(x_t x)) + r_g x,   r_R = k_R / k0,  r_g = k_g / k0,  a = A / theta
 
-with the quadratures ``I2' = f^2``, ``L' = (f - f_e) x'`` and the settling test of
-``equations.py``. Smooth at first touch, it needs no series start: Dormand & Prince's 5(4)
-pair (J. Comput. Appl. Math. 6, 1980) integrates it from ``x = 0, w = 1``, with a cubic
-Hermite dense output per step. A row of the history: ``s0, h, x0, w0, x0', w0', x1, w1,
-x1', w1'``.
+Smooth at first touch, it needs no series start: Dormand & Prince's 5(4) pair (J. Comput.
+Appl. Math. 6, 1980) integrates it with a cubic Hermite dense output. History row: ``s0, h,
+x0, w0, x0', w0', x1, w1, x1', w1'``.
 """
 
 from __future__ import annotations
@@ -34,16 +30,14 @@ S_T0, S_H, S_X0, S_W0, S_DX0, S_DW0, S_X1, S_W1, S_DX1, S_DW1 = range(10)
 S_COLS = 10
 #: Steps before the integration reports failure.
 SHELL_STEP_LIMIT = 200_000
-#: Absolute tolerance of the dimensionless state relative to the local one (as the
-#: power laws' ``ABSOLUTE_FACTOR``).
+#: Absolute tolerance relative to the local one (as the power laws' ``ABSOLUTE_FACTOR``).
 SHELL_ABSOLUTE_FACTOR = 1e-6
 
 #: The dimensionless shell law (module docstring), the kernels' one argument for it.
 Shell = namedtuple("Shell", ("lam", "G", "rR", "xt", "rg", "a"))
 
-# Dormand & Prince 5(4): the coupling coefficients by row, the last row the 5th-order
-# weights (the stage there is the next step's first), and the error weights (the 5th-
-# less the 4th-order ones).
+# Dormand & Prince 5(4): coupling rows, the last the 5th-order weights (its stage is the next
+# step's first), and the error weights.
 _A = np.array([
     [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
@@ -61,8 +55,7 @@ _E = np.array([
 
 @compiled()
 def shell_elastic(x, law):
-    """The elastic force ``f_e`` and the shell's tangent stiffness ``k_s`` (dimensionless)
-    at the penetration ``x >= 0``."""
+    """Elastic force ``f_e`` and tangent stiffness ``k_s`` (dimensionless) at ``x >= 0``."""
     if x < law.xt:
         return law.rR * x + law.rg * x, law.rR
     r = math.sqrt(law.xt * x)
@@ -119,10 +112,7 @@ def hermite(hist, k, s):
 
 @compiled()
 def _root_in_row(hist, k, law, which):
-    """The time in row ``k`` where, from positive at its start, the penetration
-    (``which`` 0) or the force's numerator ``f_e + a k_s w`` (``which`` 1) first reaches 0:
-    the first sign change on a grid of the step, then bisection to the resolution of the
-    time axis."""
+    """Time in row ``k`` where x (``which`` 0) or the force's numerator (1) first reaches 0."""
     lo = hist[k, S_T0]
     hi = lo + hist[k, S_H]
     step = (hi - lo) / 16
@@ -156,9 +146,7 @@ def _event(hist, k, s, law, which):
 
 @compiled()
 def _golden_max(hist, nh, k, s_contact, law, which):
-    """The largest penetration (``which`` 0) or force (1) of the dense output from row
-    ``k`` to the end of the next (the peak may lie in either) within the contact
-    (golden-section search)."""
+    """Largest x (``which`` 0) or force (1) from row ``k`` to the next's end (golden section)."""
     j = min(k + 1, nh - 1)
     lo = hist[k, S_T0]
     hi = min(hist[j, S_T0] + hist[j, S_H], s_contact)
@@ -189,9 +177,8 @@ def _value(hist, nh, s, law, which):
 
 @compiled()
 def dp5_step(y, K, h, law, yn, err):
-    """One Dormand-Prince 5(4) step of length ``h`` from ``y = (x, w, I2, L)`` with the
-    slopes ``K[0]`` there: the new state into ``yn``, the stages into ``K`` (``K[6]``: the
-    slopes at ``yn``) and the error estimates of the four into ``err``."""
+    """One Dormand-Prince 5(4) step ``h`` from ``y`` with slopes ``K[0]``: state into ``yn``,
+    stages into ``K`` (``K[6]`` at ``yn``), error estimates into ``err``."""
     for q in range(4):  # (h a21) k1, as Dormand & Prince's second stage is written
         yn[q] = y[q] + h * _A[1, 0] * K[0, q]
     shell_rhs(yn, law, K[1])
@@ -211,8 +198,7 @@ def dp5_step(y, K, h, law, yn, err):
 
 @compiled()
 def _kink_step(y, K, h, law, yn, err):
-    """The length of the step from ``y`` (first slopes ``K[0]``) that ends on the law's kink
-    ``x = x_t``, shorter than ``h``, by Newton's method; its state in ``yn``."""
+    """Length of the step from ``y`` ending on the kink ``x = x_t`` (Newton); state in ``yn``."""
     xt = law.xt
     hk = h * (xt - y[0]) / (yn[0] - y[0])
     for _ in range(4):
@@ -226,8 +212,7 @@ def _kink_step(y, K, h, law, yn, err):
 
 @compiled()
 def integrate(law, rtol, atol):
-    """Integrate one contact from first touch: returns (status, s_end, x_end, w_end, I2,
-    loss, n_steps, hist) with ``hist`` the dense output's rows."""
+    """One contact from first touch: (status, s_end, x_end, w_end, I2, loss, n_steps, hist)."""
     hist = np.zeros((64, S_COLS))
     s = 0.0
     y = np.array([0.0, 1.0, 0.0, 0.0])
@@ -241,8 +226,7 @@ def integrate(law, rtol, atol):
     xt = law.xt
     for _ in range(SHELL_STEP_LIMIT):
         dp5_step(y, K, h, law, yn, err)
-        # the energy quadratures are controlled too: the loss' integrand has a kink where
-        # the force ends, which the state (x, w) hardly sees
+        # the quadratures are controlled too: the loss has a kink where the force ends
         e = 0.0
         for q in range(4):
             e += (err[q] / (atol + rtol * max(abs(y[q]), abs(yn[q])))) ** 2
@@ -254,9 +238,8 @@ def integrate(law, rtol, atol):
             continue
         x, xn = y[0], yn[0]
         if (x - xt) * (xn - xt) < 0.0 and abs(x - xt) > 1e-9 * xt:
-            # the step crosses the kink of the law (Reissner's to Pogorelov's, where the
-            # force's slope halves): shorten it to end on the kink (Newton's method on the
-            # step's length), so that no step straddles it and the order is kept
+            # the step crosses the law's kink (Reissner's to Pogorelov's): end it on the kink
+            # so that the order is kept
             hk = _kink_step(y, K, h, law, yn, err)
             yn[0] = xt
             shell_rhs(yn, law, K[6])
@@ -270,8 +253,7 @@ def integrate(law, rtol, atol):
         row[S_X0], row[S_W0], row[S_DX0], row[S_DW0] = y[0], y[1], K[0, 0], K[0, 1]
         row[S_X1], row[S_W1], row[S_DX1], row[S_DW1] = yn[0], yn[1], K[6, 0], K[6, 1]
         nh += 1
-        # the end of contact: the penetration returns to 0 within the step (or dips
-        # below it and back: the Hermite interpolant is tested on a grid)
+        # end of contact: x returns to 0 in the step, or dips and returns (grid test)
         ends = yn[0] < 0.0
         if not ends and K[0, 0] < 0.0 < K[6, 0]:
             for i in range(1, 16):
@@ -279,8 +261,7 @@ def integrate(law, rtol, atol):
                     ends = True
                     break
         if ends:
-            # the root on the dense output, then refined by Newton's method on steps of
-            # the integrator itself from the step's start (the dense output is of order 4)
+            # the root on the dense output (order 4), refined by Newton on integrator steps
             s_end = _root_in_row(hist, nh - 1, law, 0)
             for _ in range(3):
                 dp5_step(y, K, s_end - s, law, yn, err)
@@ -304,9 +285,7 @@ def integrate(law, rtol, atol):
 
 @compiled()
 def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
-    """One impact of the shell law from SI parameters (``k0`` N/m, ``xt_si`` the
-    transition deflection m, ``A`` s, ``beta`` m/(N s)): returns the result array, its
-    fields named by the ``R_*`` indices of ``outcome.py``, and the dense output (``hist``)."""
+    """A shell impact (``k0`` N/m, ``xt_si`` m, ``A`` s, ``beta`` m/(N s)): result, dense output."""
     v0 = v_in + v_free
     theta = math.sqrt(m / k0)
     lam = beta * m / theta
@@ -341,12 +320,9 @@ def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
 
 @compiled()
 def shell_force_slope(d, s, out, slope):
-    """The force ``f`` and its rate ``df/ds`` (dimensionless) at the times ``s`` into
-    ``out`` and ``slope``, 0 outside ``(0, s_contact)``, of the dense output ``d``
-    (``contact_result.ShellDense``): on the dense state, with ``x' = w - lam f``, ``w' = G -
-    f`` and ``f = N / D``, ``N = f_e + a k_s w``, ``D = 1 + a k_s lam``: ``f' = (N' - f D') /
-    D``, ``N' = (k_s + r_g) x' + a (k_s' w + k_s w')``, ``D' = a lam k_s'``, ``k_s' = -k_s x'
-    / (2 x)`` past the transition, else 0."""
+    """Force ``f`` and rate ``df/ds`` (dimensionless) at times ``s`` into ``out``, ``slope``, 0
+    outside ``(0, s_contact)``: ``f' = (N' - f D') / D`` with ``N = f_e + a k_s w``, ``D = 1 +
+    a k_s lam``, ``k_s' = -k_s x' / (2 x)`` past the transition."""
     hist, law = d.hist, d.law
     lam, G, rg, a = law.lam, law.G, law.rg, law.a
     nh = hist.shape[0]

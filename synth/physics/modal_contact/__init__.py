@@ -1,19 +1,16 @@
 """The finite plate in the contact: the ball against the plate's modes (docs/physics.md,
 "Plate impedance" and "Plate modes").
 
-The plate under the ball is ``w = sum_k q_k + q_rigid + sum_j q_j - x_res``: its bending modes
-at the contact point (coupling ``c_k = phi_k(x0)^2 / M_k``, 1/kg), a free plate's rigid-body
-motion, and the residual above the band (the infinite plate's continuum less the band's, as
-:data:`RESIDUAL_BINS` lumped modes and a one-pole tail), so every contact starts on the
-infinite plate's admittance and the modes add the reflections and ringing. Ball: ``m u'' = F
-- m g``, ``F = K delta^n``, ``delta = w - u``, or with Hunt & Crossley's (J. Appl. Mech. 42
-(1975) 440-445) or the viscoelastic loss (Brilliantov et al. 1996).
+The plate under the ball is its modes at the contact point (``c_k = phi_k(x0)^2 / M_k``,
+1/kg), a free plate's rigid-body motion, and the residual above the band (lumped modes and a
+one-pole tail), so every contact starts on the infinite plate's admittance and the modes add
+reflections and ringing. Losses: Hunt & Crossley, J. Appl. Mech. 42 (1975) 440-445;
+viscoelastic, Brilliantov et al. 1996.
 
-Numerics: fixed steps with a first-order hold on the force, every linear part advanced exactly
-by exponential integrators (Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286), the force
-at a step's end the root of one monotone scalar equation: implicit in the contact,
-unconditionally stable, second order. The modes solve exactly the band (:func:`band_modes`),
-so results do not depend on the caches; the energy balance is ``energy_residual``."""
+Numerics: fixed steps, first-order hold on the force, linear parts advanced exactly by
+exponential integrators (Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286), the force at
+a step's end the root of one monotone scalar equation: unconditionally stable, second order.
+The modes solve exactly the band, so results do not depend on the caches."""
 
 from synth.physics.modal_contact.contact import (
     BAND_FACTOR,

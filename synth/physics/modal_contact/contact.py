@@ -1,6 +1,4 @@
-"""The ball against the plate's modes (:mod:`synth.physics.modal_contact`): the plate's state
-between impacts (:class:`PlateRinging`), one impact (:class:`ModalContact`) and the next
-landing on the ringing plate (:func:`next_touch`)."""
+"""The ball against the plate's modes: the plate's state, one impact and the next landing."""
 
 from __future__ import annotations
 
@@ -28,22 +26,19 @@ from synth.physics.modal_contact.kernels import (
 from synth.physics.modal_contact.point import ModalPoint, modal_point
 from synth.physics.scene import Ball, Plate
 
-#: Band limit of the modes in the contact, in units of ``1 / tau`` (``tau`` the impedance
-#: model's time to separation): the force pulse's spectrum is below -60 dB of its peak beyond
-#: about ``3 / tau``; the residual stands for the modes above.
+#: Band limit of the modes in units of ``1 / tau`` (the impedance model's time to separation):
+#: the pulse's spectrum is below -60 dB beyond about ``3 / tau``; the residual covers the rest.
 BAND_FACTOR = 4.0
 #: Fixed steps over one contact of the impedance model's duration (to separation).
 STEPS_PER_CONTACT = 512
-#: A contact still going after this many impedance-model contact times is reported as
-#: settled (the ball rests on the plate).
+#: Contact times after which a contact still going is reported as settled.
 SETTLE_FACTOR = 40.0
 
 
 @dataclass(frozen=True, eq=False)
 class PlateRinging:
-    """The plate's state under the ball: displacements ``q`` (m) and velocities ``v`` (m/s) of
-    the band's ``n_band`` modes then the residual's lumped modes, and the residual's tail
-    displacement ``x_res`` (m, downward). A plate at rest is all zeros."""
+    """The plate's state under the ball: modal displacements ``q`` (m) and velocities ``v``
+    (m/s), band then residual, and the tail's ``x_res`` (m, downward); at rest all zeros."""
 
     q: np.ndarray
     v: np.ndarray
@@ -65,12 +60,10 @@ class PlateRinging:
 
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
-    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: between the steps
-    (``step_times``, s) the pulse is the contact law of the cubic Hermite interpolant of
-    ``step_gaps`` (m) and ``step_rates`` (m/s). ``contact_time`` is the force pulse's length,
-    ``separation_time`` the last step's; ``contact_loss`` the energy (J) the contact's loss and
-    plastic flow took; ``ringing`` the plate at separation; ``restitution`` the ball's upward
-    speed at separation over its impact speed (what bounce times measure)."""
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: the pulse between
+    ``step_times`` (s) from the Hermite interpolant of ``step_gaps`` (m) and ``step_rates``
+    (m/s); ``contact_loss`` (J) of the law's loss and plastic flow; ``ringing`` the plate at
+    separation; ``restitution`` as bounce times measure it."""
 
     step_times: np.ndarray | None = field(default=None, repr=False)
     step_forces: np.ndarray | None = field(default=None, repr=False)
@@ -102,10 +95,7 @@ class ModalImpactResult(ImpactResult):
         return times, forces
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
-        """Force (N) and its rate (N/s) at times ``t`` (s from first touch, 1-D); 0 outside:
-        the law as ``F = K (a + c delta')``, ``c = mu a + b r``, ``F >= 0``, with ``a = delta^n``,
-        ``r = delta^(n-1)`` or Thornton's yield (the largest penetration before a step its
-        state)."""
+        """Force (N) and its rate (N/s) at times ``t`` (s from first touch); 0 outside."""
         tt = np.asarray(t, dtype=float).ravel()
         ts = self.step_times
         i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
@@ -131,19 +121,16 @@ class ModalImpactResult(ImpactResult):
     def pulse_samples(
         self, step: float, points: int, offset: float, period: float, samples: int
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Force (N) and its rate (N/s) at ``j step`` (``j < points``), then ``offset + m period``
-        (``m < samples``), s from first touch."""
+        """Force (N) and rate (N/s) at ``j step``, then ``offset + m period`` (s)."""
         t = np.concatenate((np.arange(points) * step, offset + np.arange(samples) * period))
         return self.force_and_slope_at(t)
 
 
 @dataclass(frozen=True, eq=False)
 class ModalContact:
-    """Impacts of a ball on a finite plate at one point, the plate as its modes
-    (:class:`ModalPoint`). ``mass`` (kg), ``stiffness`` (N/m^n), ``exponent``, ``gravity``
-    (m/s^2), ``dissipation`` (s/m), ``viscous_time`` (s) and ``yield_penetration`` (m) as
-    :class:`~synth.physics.contact.ContactSolver`'s; ``steps_per_contact``: fixed steps over one
-    impedance-model contact time."""
+    """Impacts of a ball on a finite plate at one point, the plate as its modes. Fields (SI) as
+    :class:`~synth.physics.contact.ContactSolver`'s; ``steps_per_contact``: fixed steps over
+    one impedance-model contact time."""
 
     point: ModalPoint
     mass: float
@@ -181,10 +168,9 @@ class ModalContact:
         theory: str = "kirchhoff",
         **contact_options,
     ) -> ModalContact:
-        """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre) under
-        the contact ``law`` and its options (:func:`synth.physics.contact_law.contact_parameters`).
-        ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's contact
-        time at ``speed`` (m/s; default 1); ``theory``: :func:`modal_point`'s."""
+        """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
+        under ``law``. ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the
+        impedance model's contact time at ``speed`` (m/s; default 1)."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
@@ -225,8 +211,7 @@ class ModalContact:
         return PlateRinging(q, v, x, p.omega.size)
 
     def energy(self, state: PlateRinging) -> float:
-        """Energy in ``state`` (J): ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` summed over the modes,
-        plus the residual's tail spring ``a x_res^2 / (2 beta_W)``."""
+        """Energy in ``state`` (J): modes' ``(v^2 + omega^2 q^2) / (2 c)`` plus the tail spring."""
         p = self.point
         omega, _, coupling = p.contact_modes
         q, v = state.q, state.v
@@ -236,8 +221,7 @@ class ModalContact:
     def solve(
         self, speed: float, state: PlateRinging | None = None, *, n_points: int = 128
     ) -> ModalImpactResult:
-        """The impact at ``speed`` (m/s, downward at first touch) on the plate in ``state`` (None:
-        at rest); ``n_points`` uniform samples of the pulse in ``time`` and ``force``."""
+        """The impact at ``speed`` (m/s, down) on the plate in ``state`` (None: at rest)."""
         v_in = checks.positive("speed", speed, "m/s")
         n_points = check_points(n_points)
         p = self.point
@@ -275,8 +259,7 @@ class ModalContact:
         ringing = PlateRinging(q, v, float(x[0]), p.omega.size)
         e_plate = self.energy(ringing)
         rigid = 0.5 * o.rigid_v**2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
-        # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
-        # the ball from first touch included: m g times the height it lost)
+        # ball energy in = out + plate energy gained + losses (gravity's work included)
         m = self.mass
         ball_in = 0.5 * m * v_in**2
         ball_out = 0.5 * m * o.v**2 + m * self.gravity * (o.u - w0)
@@ -313,9 +296,8 @@ class ModalContact:
 def next_touch(
     contact: ModalContact, state: PlateRinging, height: float, speed: float
 ) -> tuple[float, PlateRinging]:
-    """The ball's next landing on the ringing plate: the first time ``s`` (s from now) at which
-    the ball at ``height`` (m above the plate's rest) rising at ``speed`` (m/s) meets the
-    surface ringing from ``state``, and the plate's state then."""
+    """The ball's next landing: the first time (s) the ball at ``height`` (m) rising at
+    ``speed`` (m/s) meets the plate ringing from ``state``, and the plate's state then."""
     p = contact.point
     g = contact.gravity
     if not g > 0.0:
@@ -338,8 +320,7 @@ def next_touch(
 
 
 def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
-    """The impedance model's impact (infinite plate; Hunt-Crossley ``mu``, s/m, viscoelastic
-    ``A``, s): the modal contact's time scale."""
+    """The impedance model's impact (``mu`` s/m, ``A`` s): the modal contact's time scale."""
     return solve_contact(
         mass=float(m), stiffness=float(K),
         admittance=1.0 / impedance.infinite_plate_impedance(plate), speed=float(v), gravity=0.0,
@@ -350,8 +331,7 @@ def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
 def impedance_contact_time(
     ball: Ball, plate: Plate, speed: float, *, law: str = "hertz", **contact_options
 ) -> float:
-    """The impedance model's time to separation (s) of ``ball`` on ``plate`` at ``speed`` (m/s)
-    without gravity under ``law``: the time scale of :class:`ModalContact`'s band and steps."""
+    """The impedance model's time to separation (s) at ``speed`` (m/s) without gravity."""
     c = contact_parameters(ball, plate, law, **contact_options)
     v = checks.positive("speed", speed, "m/s")
     return _impedance_contact(

@@ -1,5 +1,4 @@
-"""Numba kernels of the modal contact (:mod:`synth.physics.modal_contact`, whose docstring
-describes the numerics): one contact in fixed steps and the free ringing of damped modes."""
+"""numba kernels of the modal contact: one contact in fixed steps, free ringing of damped modes."""
 
 from __future__ import annotations
 
@@ -38,10 +37,9 @@ class BallLaw(NamedTuple):
 
 
 class Outcome(NamedTuple):
-    """One contact of :func:`contact_kernel`: separated (else the ball rests on the plate), time
-    to separation (s), the ball's velocity (m/s, upward) and height (m) then, largest penetration
-    (m) and force (N), impulse (N s), steps, the energies taken by the modes' damping, the
-    residual's dashpot and the contact's loss (J), and the rigid body's velocity (m/s)."""
+    """One contact: separated, time to separation (s), the ball's velocity (m/s, up) and height
+    (m), peak penetration (m) and force (N), impulse (N s), steps, damping, dashpot and contact
+    losses (J), rigid-body velocity (m/s)."""
 
     separated: bool
     time: float
@@ -59,9 +57,8 @@ class Outcome(NamedTuple):
 
 @compiled(inline="always")
 def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
-    """Root of ``f(x, *args)`` in ``[lo, hi]`` with ``f(lo) > 0 >= f(hi)`` by Illinois' false
-    position (Dowell & Jarratt, BIT 11 (1971) 168-174), bisecting where a step leaves the
-    bracket, to ``atol + rtol hi``; returns the end ``hi`` (``f <= 0`` there)."""
+    """Root in ``[lo, hi]`` with ``f(lo) > 0 >= f(hi)`` by Illinois' false position (Dowell &
+    Jarratt, BIT 11 (1971) 168-174), bisecting outside the bracket; returns ``hi``."""
     side = 0
     for _ in range(200):
         if hi - lo <= atol + rtol * hi:
@@ -87,8 +84,7 @@ def illinois(f, args, lo, hi, f_lo, f_hi, atol, rtol):  # pragma: no cover
 
 @compiled()
 def _phi12(z):  # pragma: no cover
-    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex), by Taylor
-    series near 0 (no cancellation)."""
+    """``phi_1(z)``, ``phi_2(z)`` (complex), by Taylor series near 0 (no cancellation)."""
     if abs(z) < 0.1:
         p1 = 0j
         p2 = 0j
@@ -104,9 +100,7 @@ def _phi12(z):  # pragma: no cover
 
 @compiled()
 def _transition(omega, sigma, h):  # pragma: no cover
-    """Damped frequency ``omega_d`` (rad/s), ``e^(-sigma h)``, ``cos`` and ``sin(omega_d h)`` of
-    ``q'' + 2 sigma q' + omega^2 q = 0`` over ``h`` (s), whose transition matrix is ``e^(-sigma
-    h) [[c + sigma/omega_d s, s/omega_d], [-omega^2/omega_d s, c - sigma/omega_d s]]``."""
+    """``omega_d`` (rad/s), ``e^(-sigma h)``, ``cos``, ``sin(omega_d h)`` over ``h`` (s)."""
     wd = math.sqrt(omega * omega - sigma * sigma)
     return wd, math.exp(-sigma * h), math.cos(wd * h), math.sin(wd * h)
 
@@ -126,9 +120,7 @@ def _transition_matrix(omega, sigma, h, P):  # pragma: no cover
 
 @compiled()
 def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
-    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f``, ``f`` linear over it:
-    ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``, ``G`` rows (f0 -> q, f1 -> q,
-    f0 -> v, f1 -> v)."""
+    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f``, ``f`` linear over it."""
     _transition_matrix(omega, sigma, h, P)
     for k in range(omega.size):
         wd = math.sqrt(omega[k] * omega[k] - sigma[k] * sigma[k])
@@ -151,8 +143,7 @@ def _real_coefficients(a, h):  # pragma: no cover
 
 @compiled()
 def _solve_delta(A, B, K, n):  # pragma: no cover
-    """Root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above (convex,
-    increasing)."""
+    """Root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above (convex)."""
     d = A
     # start from the smaller of the two one-term solutions: both bound the root from above
     d2 = (A / (B * K)) ** (1.0 / n) if B > 0.0 else A
@@ -173,12 +164,9 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
 
 @compiled()
 def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """Force ``F = K (a + c d')``, ``c = mu a + b r`` (N, >= 0) with ``a = d^n``, ``r = d^(n-1)``
-    (Hunt-Crossley for ``b = 0``, viscoelastic Hertz ``b = 3/2 A`` for ``mu = 0``) or, past a
-    yield ``dy`` (m; None: none), Thornton's ``a``, ``r`` of
-    :func:`~synth.physics.contact_kernels.equations.yield_law` (``dm``, m, the largest
-    penetration before the step), at the end of a step whose rate is ``d' = Av - Bv F``,
-    solved for ``F``; and ``dF / dd`` (N/m)."""
+    """Force ``F = K (a + c d')`` (N, >= 0), ``c = mu a + b r``, at the end of a step whose rate
+    is ``d' = Av - Bv F``, and ``dF / dd`` (N/m); past a yield ``dy`` (m) Thornton's ``a``,
+    ``r`` from the largest penetration ``dm`` (m)."""
     if d <= 0.0:
         return 0.0, 0.0
     if dy is not None:
@@ -198,8 +186,7 @@ def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
 
 @compiled()
 def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
-    """Root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with :func:`_lossy_force`:
-    Newton kept inside a bracket, bisection where a step leaves it."""
+    """Root of ``delta + B F(delta) = A``: bracketed Newton."""
     lo = 0.0
     hi = A
     d = _solve_delta(A, B, K, n)  # start from the elastic root
@@ -251,8 +238,7 @@ def _end_gap(h, q, v, p, F0, qr, vr, x, u, vs, law):  # pragma: no cover
 
 @compiled()
 def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
-    """Advance the modes one step with the force linear from F0 to F1; returns the modal
-    damping loss (trapezoid rule), J."""
+    """Advance the modes one step, force linear from F0 to F1; the damping loss, J (trapezoid)."""
     loss = 0.0
     for k in range(q.size):
         q0 = q[k]
@@ -265,8 +251,7 @@ def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
 
 @compiled()
 def _surface_velocity(v, vr, xdot):  # pragma: no cover
-    """Velocity of the surface under the ball (m/s, upward): modes, rigid body and residual
-    (``x_res`` downward)."""
+    """Velocity of the surface under the ball (m/s, up): modes, rigid body, residual."""
     w = vr - xdot
     for k in range(v.size):
         w += v[k]
@@ -275,9 +260,8 @@ def _surface_velocity(v, vr, xdot):  # pragma: no cover
 
 @compiled()
 def _step(q, v, p, P, G, E, r0, r1, x, qr, vr, u, vs, F0, F1, h, law):  # pragma: no cover
-    """One step ``h`` (s), the force linear from ``F0`` to ``F1`` (N), of the modes (in place),
-    the residual's tail ``x`` (m), the rigid body ``qr``, ``vr`` and the ball ``u``, ``vs`` (m,
-    m/s): those, the tail's velocity at the end (m/s), the damping and dashpot losses (J)."""
+    """One step ``h`` (s), force linear from ``F0`` to ``F1`` (N): modes in place, residual
+    tail, rigid body and ball; returns those, the tail's velocity (m/s) and losses (J)."""
     damping = _advance(q, v, P, G, p.c, p.sigma, F0, F1, h)
     xdot0 = p.beta * F0 - p.a * x
     x = E * x + p.beta * (r0 * F0 + r1 * F1)
@@ -292,11 +276,10 @@ def _step(q, v, p, P, G, E, r0, r1, x, qr, vr, u, vs, F0, F1, h, law):  # pragma
 
 @compiled()
 def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragma: no cover
-    """One contact from first touch (ball velocity ``-v_in``, m/s) on the plate ``p``
-    (:class:`Oscillators`) under ``law`` (:class:`BallLaw`), with Thornton's yield past ``dy``
-    (m; None: none, compiled without it); fixed steps ``h`` (s), the last one cut at separation.
-    ``q``, ``v``, ``x_res`` (array of one) are the plate's state, advanced in place; ``pulse``
-    rows take the time (s), force (N), penetration (m) and its rate (m/s) at every step."""
+    """One contact from first touch at ``v_in`` (m/s) on plate ``p`` under ``law``, yield past
+    ``dy`` (m; None: compiled without); fixed steps ``h`` (s), the last cut at separation. The
+    plate's state is advanced in place; ``pulse`` takes time (s), force (N), penetration (m)
+    and rate (m/s) per step."""
     times, forces, gaps, rates = pulse[0], pulse[1], pulse[2], pulse[3]
     m, K, n, mu, b = law.m, law.K, law.n, law.mu, law.b
     N = q.size
@@ -427,9 +410,8 @@ def _touch_gap(t, p, q0, v0, x_res, height, speed, gravity, q, v):  # pragma: no
 
 @compiled()
 def first_touch(p, q0, v0, x_res, height, speed, gravity, dt, s0, end):  # pragma: no cover
-    """First time in ``[s0, end]`` (s) at which a ball at ``height`` (m) rising at ``speed``
-    (m/s) under ``gravity`` (m/s^2) meets the ringing surface (:func:`_surface`), else ``end``:
-    the gap sampled every ``dt`` (s), the first sign change closed by :func:`illinois`."""
+    """First time in ``[s0, end]`` (s) a ball at ``height`` (m) rising at ``speed`` (m/s) under
+    ``gravity`` (m/s^2) meets the ringing surface, else ``end``: sampled every ``dt`` (s)."""
     n = q0.size
     q = np.empty(n)
     v = np.empty(n)
@@ -485,9 +467,7 @@ def hermite(u, h, gaps, rates, i):  # pragma: no cover
 
 @compiled()
 def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
-    """Sign of the lossy force before its clip at 0 (with a yield ``dy``, m, after the largest
-    penetration ``dm``, m: -1 below the residual penetration) at the fraction ``u`` of step ``i``
-    of the :func:`hermite` interpolant."""
+    """Sign of the unclipped lossy force (``dy``, ``dm`` in m) at fraction ``u`` of step ``i``."""
     d, rate, _ = hermite(u, h, gaps, rates, i)
     if d <= 0.0:
         return d
@@ -499,8 +479,7 @@ def _force_sign(u, h, gaps, rates, i, mu, b, dy, dm):  # pragma: no cover
 
 @compiled()
 def force_end(times, forces, gaps, rates, mu, b, dy):  # pragma: no cover
-    """End of a lossy contact's force pulse (s from first touch): the last zero of
-    :func:`_force_sign` between the steps ``times`` (s), to double precision."""
+    """End (s) of a lossy contact's force pulse: the last zero of :func:`_force_sign`."""
     last = times.size - 1
     i = last
     while i >= 0 and not forces[i] > 0.0:

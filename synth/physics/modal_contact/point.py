@@ -27,13 +27,10 @@ RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
 
 @dataclass(frozen=True, eq=False)
 class ModalPoint:
-    """The finite plate seen from ``position`` (m from a corner) up to ``max_frequency`` (Hz)
-    in ``theory`` ("kirchhoff" or "mindlin"): the band's modes ``omega`` (rad/s), ``sigma``
-    (1/s), couplings ``c_k = phi_k(x0)^2 / M_k`` (1/kg); ``rigid_coupling`` (1/kg, 0 unless
-    free); the residual's lumped modes (``residual_omega``, ``residual_sigma``,
-    ``residual_coupling``) and tail, ``residual_admittance`` ``beta_W`` (the infinite plate's
-    ``Re Y`` at the top ``W`` of the lumped modes, m/(N s)) and ``residual_rate`` ``a = pi W / 2``
-    (1/s)."""
+    """The finite plate at ``position`` (m) to ``max_frequency`` (Hz) in ``theory``: modes'
+    ``omega`` (rad/s), ``sigma`` (1/s), couplings ``phi_k(x0)^2 / M_k`` (1/kg); ``rigid_coupling``
+    (1/kg); the residual's lumped modes and tail, ``residual_admittance`` (``Re Y`` of the infinite
+    plate at the top ``W``, m/(N s)), ``residual_rate`` ``pi W / 2`` (1/s)."""
 
     plate: Plate
     position: tuple[float, float]
@@ -51,8 +48,7 @@ class ModalPoint:
 
     @property
     def contact_modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``omega`` (rad/s), ``sigma`` (1/s) and couplings (1/kg) of the band's modes, then the
-        residual's lumped ones."""
+        """``omega`` (rad/s), ``sigma`` (1/s), couplings (1/kg): the band's, then the residual's."""
         return (
             np.concatenate((self.omega, self.residual_omega)),
             np.concatenate((self.sigma, self.residual_sigma)),
@@ -87,9 +83,8 @@ class ModalPoint:
         return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
 
     def band_impedance(self, low: float, high: float) -> float:
-        """``1 / <Re Y>`` (N s/m), ``Re Y`` averaged over ``[low, high]`` (Hz): an impact hammer's
-        band-averaged measurement, ``Z_inf`` for the infinite plate (each mode adds ``pi c_k / 2``
-        to the integral of ``Re Y`` over angular frequency)."""
+        """``1 / <Re Y>`` (N s/m) over ``[low, high]`` (Hz): an impact hammer's band-averaged
+        measurement (each mode adds ``pi c_k / 2`` to ``Int Re Y d omega``)."""
         lo = checks.nonnegative("low", low, "Hz")
         hi = checks.positive("high", high, "Hz")
         if not hi > lo:
@@ -111,9 +106,7 @@ class ModalPoint:
 
 
 def _lumped_real_integral(omega, sigma, coupling, w_lo: float, w_hi: float) -> float:
-    """``Int Re Y d omega`` over ``[w_lo, w_hi]`` (rad/s) of the oscillators ``Y = c s / (s^2 + 2
-    sigma s + omega^2)``: partial fractions ``r / (s - p) + conj``, ``r = c p / (p - conj(p))``,
-    ``Int r / (i w - p) d w = -i r log(i w - p)`` (no branch cut crossed for ``sigma > 0``)."""
+    """``Int Re Y d omega`` over ``[w_lo, w_hi]`` (rad/s) of the oscillators (partial fractions)."""
     total = 0.0
     for w0, sg, c in zip(omega, sigma, coupling, strict=True):
         p = complex(-sg, math.sqrt(w0 * w0 - sg * sg))
@@ -135,12 +128,10 @@ def modal_point(
     max_frequency: float,
     theory: str = "kirchhoff",
 ) -> ModalPoint:
-    """The plate at ``position`` (m from a corner) with its bending modes up to ``max_frequency``
-    (Hz) and the residual above. ``theory`` "mindlin" (docs/physics.md, "Thick plates"): each
-    thin-plate mode keeps its shape and wavenumber and takes Mindlin's frequency and modal mass
-    (:func:`synth.physics.impedance.mindlin_angular_frequency`, ``mindlin_mass_factor``), the
-    residual the infinite Mindlin plate's. The modes solve exactly this band
-    (:func:`band_modes`: a bounce series amplifies their last digits)."""
+    """The plate at ``position`` (m) with its modes up to ``max_frequency`` (Hz) and the
+    residual. "mindlin" (docs/physics.md, "Thick plates"): each thin-plate mode keeps shape and
+    wavenumber and takes Mindlin's frequency and modal mass. The modes solve exactly this band
+    (a bounce series amplifies their last digits)."""
     check_type("plate", plate, Plate)
     x, y = plate.check_position(position, "position")
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
@@ -228,9 +219,8 @@ class _LumpedResidual:
 
 
 def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedResidual:
-    """The residual above ``omega_band`` (rad/s): :data:`RESIDUAL_BINS` lumped modes, bin ``j``
-    over ``[Omega r^j, Omega r^(j+1)]`` with ``c_j = Int dmu`` and ``c_j / w_j^2 = Int dmu / w^2``
-    (its stiffness below the band and its mass above), and a one-pole tail."""
+    """The residual above ``omega_band`` (rad/s): lumped modes per geometric bin with ``c_j =
+    Int dmu`` and ``c_j / w_j^2 = Int dmu / w^2`` (stiffness below, mass above), and a tail."""
     from scipy.integrate import quad
 
     edges = omega_band * RESIDUAL_RATIO ** np.arange(RESIDUAL_BINS + 1)
@@ -255,10 +245,8 @@ def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedRes
     return _LumpedResidual(np.array(omega), np.array(coupling), tail, 0.5 * math.pi * top)
 
 
-# Eigen-solutions of exactly the contact's bands in memory, each point's modes on disk, keyed
-# by plate, band, point and the solver's identity (synth.physics.modes.solver_key);
-# _POINT_VERSION changes with anything else that moves their bits (how a point's modes are
-# taken, BLAS threads): a bounce series, which amplifies last bits, is the same in any cache.
+# Eigen-solutions of the contact's bands in memory, each point's modes on disk, keyed by plate,
+# band, point and solver; _POINT_VERSION changes with anything else that moves their bits.
 _BAND_MODES = MemoryCache("solves", max_entries=8)
 _POINT_VERSION = 2
 
@@ -277,8 +265,7 @@ def _plate_key(plate: Plate, max_frequency: float) -> dict:
 
 
 def band_modes(plate: Plate, max_frequency: float):
-    """The bending modes of ``plate`` up to ``max_frequency`` (Hz) from an eigen-solution of
-    exactly that band (the mode cache's, else a solve without the cache), held in memory."""
+    """Modes of ``plate`` to ``max_frequency`` (Hz), of exactly that band, held in memory."""
     from synth.physics.modes import modes as plate_modes
 
     key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)
@@ -292,8 +279,7 @@ def band_modes(plate: Plate, max_frequency: float):
 
 
 def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
-    """``omega`` (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of :func:`band_modes` at
-    ``position``: from the disk cache, or computed and stored."""
+    """``omega`` (rad/s), couplings (1/kg) at ``position``: from the disk cache, or computed."""
     key = _point_key(plate, position, max_frequency)
     try:
         path = cache_path("contact-point-modes", key)

@@ -1,13 +1,8 @@
-"""The finite rectangular plate's bending modes (docs/physics.md, "Plate modes").
-
-:func:`modes` gives every bending mode of a :class:`~synth.physics.scene.Plate` up to a
-frequency (Kirchhoff theory): simply supported edges by the closed form (:mod:`~.closed_form`),
-free and clamped by Rayleigh-Ritz (:mod:`~.ritz`, :mod:`~.basis`), cached (:mod:`~.cache`),
-crossing over to dynamic edge effect modes above a low band (:mod:`~.crossover`). Shapes have
-mean square 1 (``M_k = rho h a b``); a shape's sign is arbitrary.
-
-References: A. W. Leissa, *Vibration of Plates*, NASA SP-160 (1969), chapter 4; A. W.
-Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973) 257-293."""
+"""The finite rectangular plate's bending modes, Kirchhoff theory (docs/physics.md, "Plate
+modes"): simply supported edges in closed form, free and clamped by Rayleigh-Ritz, crossing over
+to dynamic edge effect modes above a low band. Shapes have mean square 1 (``M_k = rho h a b``);
+a shape's sign is arbitrary. Leissa, *Vibration of Plates*, NASA SP-160 (1969), ch. 4; Leissa,
+J. Sound Vib. 31 (1973) 257-293."""
 
 from __future__ import annotations
 
@@ -64,10 +59,9 @@ class EdgeEffectPart:
     offset: int
 
     def product_factors(self, x, y, length: float, width: float, index):
-        """Modes ``index`` (ascending, ``>= first_mode``) of a ``length`` x ``width`` (m) plate as
-        tables of factors at the distinct ``x``, ``y`` (m): ``(x_own, y_own, x_other, y_other)``,
-        mode ``index[k]`` at ``(x[a], y[b])`` being ``x_own[a, k] y_own[b, k] + x_other[a, k]
-        y_other[b, k]``."""
+        """Modes ``index`` (ascending) of a ``length`` x ``width`` (m) plate as factor tables at
+        the distinct ``x``, ``y`` (m): mode ``index[k]`` at ``(x[a], y[b])`` is ``x_own[a, k]
+        y_own[b, k] + x_other[a, k] y_other[b, k]``."""
         xi = np.clip(2.0 * np.asarray(x, dtype=float) / length - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * np.asarray(y, dtype=float) / width - 1.0, -1.0, 1.0)
         own = np.asarray(index, dtype=np.int64) - self.first_mode + self.offset
@@ -76,10 +70,9 @@ class EdgeEffectPart:
 
 @dataclass(frozen=True, eq=False)
 class Modes:
-    """The bending modes of ``plate`` up to ``max_frequency`` (Hz), arrays read-only:
-    ``frequencies`` (Hz, ascending; no rigid-body motion), ``angular_frequencies`` (rad/s),
-    ``decay_rates`` (1/s), ``modal_masses`` ``rho h a b`` (kg), and ``tolerance``, every
-    frequency's relative accuracy (0 for the closed form)."""
+    """The bending modes of ``plate`` up to ``max_frequency`` (Hz), read-only: ``frequencies``
+    (Hz, ascending, no rigid-body motion), ``angular_frequencies`` (rad/s), ``decay_rates``
+    (1/s), ``modal_masses`` (kg), ``tolerance`` (relative; 0 for the closed form)."""
 
     plate: Plate
     max_frequency: float
@@ -95,8 +88,7 @@ class Modes:
 
     @property
     def shape_key(self) -> str:
-        """Text identifying :meth:`shapes` exactly (plate size, mode count, solution, numerical
-        libraries), for caches of results computed from them."""
+        """Text identifying :meth:`shapes` exactly, for caches of results computed from them."""
         p = self.plate
         return json.dumps(
             {"solution": self._solution.key, "length": float(p.length).hex(),
@@ -115,8 +107,7 @@ class Modes:
 
     @property
     def solved_for_band(self) -> bool:
-        """True when the eigen-solution is of exactly ``max_frequency``, so that a result (the
-        modal contact's) does not depend on the cache's history."""
+        """True when solved for exactly ``max_frequency`` (results independent of the cache)."""
         sol = self._solution
         if isinstance(sol, SimplySupported):
             return True
@@ -137,8 +128,7 @@ class Modes:
         return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
     def shapes(self, points, index=None) -> np.ndarray:
-        """Mode shapes ``phi_k`` (mean square 1) at ``points`` (n, 2) ``(x, y)`` in metres from the
-        corner, a column per mode, or per mode of ``index`` (ascending distinct mode numbers)."""
+        """Shapes (mean square 1) at ``points`` (n, 2; m), a column per mode or per ``index``."""
         if index is not None:
             index = np.asarray(index)
             if (
@@ -209,8 +199,7 @@ def dimensionless_band(plate: Plate, max_frequency: float) -> float:
 
 
 def ritz_band(plate: Plate, max_frequency: float) -> float:
-    """The dimensionless band of the Ritz problem :func:`modes` solves up to ``max_frequency``
-    (Hz): the whole band, or beyond the crossover its low band."""
+    """The dimensionless band of the Ritz problem up to ``max_frequency`` (Hz)."""
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
     if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
@@ -221,8 +210,7 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 
 
 def solver_key(plate: Plate, max_frequency: float) -> str:
-    """Text identifying the eigen-solution of ``plate`` up to ``max_frequency`` (Hz) before any
-    solve (method, settings, bands, libraries): the key of caches of results from the modes."""
+    """Text identifying the eigen-solution of ``plate`` to ``max_frequency`` (Hz): a cache key."""
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
 
@@ -241,8 +229,7 @@ def solver_key(plate: Plate, max_frequency: float) -> str:
 
 
 def shape_terms(plate: Plate, max_frequency: float) -> int:
-    """Terms of a shape value per mode on a grid before any solve (for :mod:`synth.cost`): 1
-    for a simply supported plate, else the first Ritz basis' degrees along one axis."""
+    """Terms of a shape value per mode on a grid before any solve (for :mod:`synth.cost`)."""
     return 1 if plate.boundary == "simply-supported" else _first_basis(plate, max_frequency)[0]
 
 
@@ -252,8 +239,7 @@ def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
 
 
 def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
-    """Unknowns of each symmetry class's main and check bases of the first Ritz basis up to
-    ``max_frequency`` (Hz); none for a simply supported plate."""
+    """Unknowns of each class's main and check Ritz bases up to ``max_frequency`` (Hz)."""
     if plate.boundary == "simply-supported":
         return [], []
     return _first_basis(plate, max_frequency)[2]
@@ -264,10 +250,9 @@ def _first_basis(plate: Plate, max_frequency: float):
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
-    """Every bending mode of ``plate`` up to ``max_frequency`` (Hz, > 0), each frequency to
-    :data:`TOLERANCE` relative (:data:`EDGE_EFFECT_TOLERANCE` beyond the crossover, whose modes
-    cost linearly). ``cache``: reuse and store the eigen-solution. ``ParameterError`` for a band
-    of more than two million modes."""
+    """Every bending mode of ``plate`` up to ``max_frequency`` (Hz, > 0), each to
+    :data:`TOLERANCE` relative (:data:`EDGE_EFFECT_TOLERANCE` beyond the crossover). ``cache``:
+    reuse and store the eigen-solution. ``ParameterError`` beyond two million modes."""
     check_type("plate", plate, Plate)
     damping = plate.damping_law()
     fmax = checks.positive("max_frequency", max_frequency, "Hz")

@@ -1,9 +1,8 @@
-"""The Rayleigh-Ritz basis of the free and clamped plates and one symmetry class's
-eigen-solution (docs/physics.md, "Plate modes"): tensor products of functions orthonormal on
-``[-1, 1]`` in ``xi = 2x/a - 1``, ``eta = 2y/b - 1``, Legendre polynomials (free) or ``(1 -
-xi^2)^2 p_n^(4,4)(xi)`` (clamped), so the mass matrix is the identity and the stiffness exact
-by Gauss-Legendre; parity gives four classes. The basis keeps the degree pairs a wavenumber
-``k_x^2 + k_y^2 <= k_max^2`` needs, ``g(kappa) = kappa + 3 kappa^(1/3) + 2`` per axis."""
+"""The Rayleigh-Ritz basis of free and clamped plates (docs/physics.md, "Plate modes"): tensor
+products of functions orthonormal on ``[-1, 1]``, Legendre polynomials (free) or ``(1 - xi^2)^2
+p_n^(4,4)`` (clamped), so the mass matrix is the identity and the stiffness exact by
+Gauss-Legendre; parity gives four classes. Degrees per axis ``g(kappa) = kappa + 3 kappa^(1/3) +
+2`` for the band's wavenumber."""
 
 from __future__ import annotations
 
@@ -15,9 +14,8 @@ import numpy as np
 from synth.compilation import compiled
 from synth.physics.modes.common import ratios
 
-# Shift s of K + s I (dimensionless units of omega^2 L^4 rho h / D). The lowest
-# elastic mode of any free or clamped rectangle lies above 13 (square free plate);
-# s = 100 puts the shifted spectrum's floor near it.
+# Shift s of K + s I (units of omega^2 L^4 rho h / D): the lowest elastic mode of any free or
+# clamped rectangle lies above 13, and s = 100 puts the shifted floor near it.
 SHIFT = 100.0
 
 
@@ -28,9 +26,7 @@ def basis_alpha(boundary: str) -> int:
 
 @compiled()
 def _recurrence(x, a, p0, out):  # pragma: no cover
-    """``out[d, i, m] = d^d p_m / dxi^d`` at ``x[i]`` of the orthonormal symmetric Jacobi
-    polynomials: ``p_(m+1) = (xi p_m - a_m p_(m-1)) / a_(m+1)`` and ``p_(m+1)^(d) = (d
-    p_m^(d-1) + xi p_m^(d) - a_m p_(m-1)^(d)) / a_(m+1)``."""
+    """``out[d, i, m] = d^d p_m / dxi^d`` at ``x[i]``, orthonormal symmetric Jacobi polynomials."""
     nd, nx, n = out.shape
     if n == 0:
         return
@@ -50,15 +46,13 @@ def _recurrence(x, a, p0, out):  # pragma: no cover
 
 
 def _log_factorial(k: int) -> float:
-    """``ln k!`` of a small integer by the exact product (as ``scipy.special.gammaln`` below
-    13), without importing scipy.special for a render."""
+    """``ln k!`` by the exact product, without importing scipy.special for a render."""
     return math.log(math.factorial(k))
 
 
 def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndarray:
     """``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1], (derivatives + 1, len(x), n):
-    orthonormal Jacobi polynomials, ``a_m^2 = m (m + 2 alpha) / ((2m + 2 alpha + 1)(2m + 2 alpha
-    - 1))``, times ``(1 - xi^2)^2`` for ``alpha = 4``."""
+    orthonormal Jacobi polynomials, times ``(1 - xi^2)^2`` for ``alpha = 4``."""
     x = np.ascontiguousarray(x, dtype=float).ravel()
     p = np.empty((derivatives + 1, x.size, n))
     mu0 = math.exp(
@@ -123,9 +117,7 @@ def index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
 
 @compiled(nogil=True)
 def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # noqa: PLR0913  # pragma: no cover
-    """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle):
-    ``K[p, q] = 16 [rx^4 A22[i,k] d_jl + ry^4 d_ik B22[j,l] + nu rx^2 ry^2 (A20[i,k] B20[l,j] +
-    A20[k,i] B20[j,l]) + 2 (1-nu) rx^2 ry^2 A11[i,k] B11[j,l]]``, ``p = (i, j)``, ``q = (k, l)``."""
+    """Shifted stiffness ``K + shift 1`` of the basis (upper triangle) from the 1-D integrals."""
     n = I.size
     k = np.zeros((n, n))
     cx = 16.0 * rx**4
@@ -177,18 +169,16 @@ class RitzProblem:
 
 
 def _stiffness(problem: RitzProblem, I, J, shift=0.0):
-    """Dimensionless stiffness (upper triangle) plus ``shift`` on the diagonal: ``lambda = omega^2
-    L^4 rho h / D``, the Kirchhoff energy ``16 Int [rx^4 w_xixi^2 + ry^4 w_etaeta^2 + 2 nu rx^2
-    ry^2 w_xixi w_etaeta + 2 (1 - nu) rx^2 ry^2 w_xieta^2]``, the mass matrix the identity."""
+    """Stiffness (upper triangle) plus ``shift``, in ``lambda = omega^2 L^4 rho h / D``."""
     I, J = (np.ascontiguousarray(a, dtype=np.int64) for a in (I, J))
     p = problem
     return _assemble(I, J, *p.mx, *p.my, float(p.rx), float(p.ry), float(p.nu), float(shift))
 
 
 def solve_class(problem: RitzProblem, I, J, lam_max: float, vectors: bool):
-    """Eigenpairs ``(lam, vec)`` ascending with ``lam <= lam_max`` of the class of basis ``(I,
-    J)`` through ``(K + s I)^-1`` (Cholesky, LAPACK ``potri``): its largest eigenvalues carry a
-    relative error of about ``eps lambda / s`` whatever the norm of ``K``."""
+    """Eigenpairs ascending with ``lam <= lam_max`` of the class through ``(K + s I)^-1``
+    (Cholesky, LAPACK ``potri``): the largest carry a relative error of about ``eps lambda /
+    s`` whatever the norm of ``K``."""
     import scipy.linalg  # imported on use: a render from cached modes solves nothing
     from scipy.linalg import lapack
 
@@ -200,8 +190,7 @@ def solve_class(problem: RitzProblem, I, J, lam_max: float, vectors: bool):
     if info != 0:
         raise np.linalg.LinAlgError(f"inverse failed (info={info})")  # pragma: no cover
     mu_lo = 1.0 / (lam_max + SHIFT)
-    # Divide and conquer (evd) on the whole spectrum is faster here than a subset
-    # (evr or evx) with vectors.
+    # divide and conquer (evd) on the whole spectrum is faster here than a subset with vectors
     if vectors:
         mu, vec = scipy.linalg.eigh(
             x, lower=False, driver="evd", overwrite_a=True, check_finite=False

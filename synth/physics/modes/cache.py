@@ -1,7 +1,6 @@
 """The cache of the free and clamped plates' Ritz solutions, in memory and as ``.npz`` in
-``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by everything that
-sets them (:func:`band_key`). Only the exact band is reused: a wider band's modes differ in
-their last bits, and no result depends on what was solved before."""
+``$SYNTH_CACHE_DIR``. Only the exact band is reused: a wider band's modes differ in their last
+bits, and no result may depend on what was solved before."""
 
 from __future__ import annotations
 
@@ -15,14 +14,11 @@ from synth.physics.modes.common import numerics_key
 from synth.physics.modes.ritz import RitzSolution, solution_key, solve_ritz
 from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
-# Solutions held in memory: least recently used ones are dropped beyond 1 GiB (the
-# newest is always kept).
+# Solutions in memory: least recently used dropped beyond 1 GiB (the newest always kept).
 CACHE = MemoryCache("solves", max_bytes=1 << 30)
 
 
-#: Counters of the cache of the Ritz solutions since start-up (``solves``, ``memory_hits``,
-#: ``disk_hits``, ``disk_writes``, ``entries``), and forgetting what memory holds with the
-#: counters (the disk untouched).
+#: Counters of the Ritz cache since start-up, and forgetting memory with them (not the disk).
 cache_info = CACHE.info
 clear_memory_cache = CACHE.clear
 
@@ -93,8 +89,7 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
 
 
 def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
-    """The converged solution of the band ``omega_req`` (dimensionless): from memory, disk, or
-    solved; the same arrays whichever."""
+    """The converged solution of band ``omega_req``: from memory, disk or solved (same arrays)."""
     if not cache:
         sol = solve_ritz(boundary, nu, aspect, omega_req)
         CACHE.count("computed")

@@ -14,8 +14,7 @@ from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios
 
 
 class SimplySupported:
-    """Closed-form modes of a simply supported rectangle (dimensionless frequencies
-    ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``)."""
+    """Closed-form modes of a simply supported rectangle (``omega L^2 sqrt(rho h / D)``)."""
 
     def __init__(self, aspect, omega_max):
         rx, ry = ratios(aspect)
@@ -57,10 +56,9 @@ class SimplySupported:
 
 @dataclass(frozen=True)
 class SeparableShapes:
-    """Shapes that are products ``phi_k = X_(i_k)(x) Y_(j_k)(y)``, ``X_m(x) = sqrt(2) sin(m pi x /
-    a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``, whose sums over points are shared between modes
-    (:func:`synth.sound.radiation.separable_gains`). ``length``, ``width``: m; ``x_index``,
-    ``y_index``: mode ``k``'s factors; ``wavenumber``: the largest factor's, rad/m."""
+    """Shapes that are products ``X_i(x) Y_j(y)``, ``X_m(x) = sqrt(2) sin(m pi x / a)``, whose
+    sums over points are shared between modes. ``length``, ``width``: m; ``wavenumber``: the
+    largest factor's, rad/m."""
 
     length: float
     width: float
@@ -69,26 +67,22 @@ class SeparableShapes:
     wavenumber: float
 
     def x_values(self, x: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
-        """``X_i(x)`` (``x`` in m) for every ``i`` in use, ``(len(x), max(x_index) + 1)``, or for
-        ``index`` alone."""
+        """``X_i(x)`` (``x`` in m) for every ``i`` in use, or for ``index`` alone."""
         return _sine_factors(x, math.pi / self.length, self.x_index, index)
 
     def y_values(self, y: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
-        """``Y_j(y)`` (``y`` in m) for every ``j`` in use, ``(len(y), max(y_index) + 1)``, or for
-        ``index`` alone."""
+        """``Y_j(y)`` (``y`` in m) for every ``j`` in use, or for ``index`` alone."""
         return _sine_factors(y, math.pi / self.width, self.y_index, index)
 
     def mode_wavenumbers(self) -> np.ndarray:
-        """``k_k = pi sqrt((i_k + 1)^2 / a^2 + (j_k + 1)^2 / b^2)`` (rad/m): each product of sines
-        solves ``(lap + k_k^2) phi_k = 0`` in the whole plane."""
+        """Wavenumbers (rad/m): each product of sines solves ``(lap + k^2) phi = 0`` everywhere."""
         kx = math.pi * (self.x_index + 1.0) / self.length
         ky = math.pi * (self.y_index + 1.0) / self.width
         return np.sqrt(kx * kx + ky * ky)
 
 
 def _sine_factors(u, rate, in_use, index):
-    """``sqrt(2) sin((i + 1) rate u)`` for ``i <= max(in_use)`` (:func:`_sine_table`), or for
-    ``i`` in ``index`` (a few of a long table by libm's sine)."""
+    """``sqrt(2) sin((i + 1) rate u)`` for every ``i`` in use, or for ``index`` (libm)."""
     t = np.ascontiguousarray(u, dtype=float) * rate
     n = int(in_use.max()) + 1 if in_use.size else 0
     if index is None:

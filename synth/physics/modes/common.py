@@ -1,6 +1,4 @@
-"""What the plate-mode solutions share: the cache layout's version, the numerical libraries
-of their keys, the temporary-array budget of their shapes, the aspect ratios, and a matrix
-product kept on the calling thread."""
+"""What the plate-mode solutions share: versions, budgets, aspect ratios, a one-thread product."""
 
 from __future__ import annotations
 
@@ -10,17 +8,15 @@ import numpy as np
 
 # Temporary-array budget of shapes(): elements (8 bytes each).
 CHUNK_ELEMENTS = 1 << 22
-# Largest matrix product shapes() hands to BLAS in one call, multiply-adds: OpenBLAS runs up
-# to 4 * 65536 on one thread (GEMM_MULTITHREAD_THRESHOLD); beside busy threads (the radiation's
-# sums) a multithreaded product stalls until a helper's core is free.
+# Largest matrix product handed to BLAS in one call, multiply-adds: OpenBLAS runs up to 4 *
+# 65536 on one thread; beside busy threads a multithreaded product stalls for a free core.
 _PIECE = 1 << 18
 # Version of the stored solution layout and algorithm; part of the cache key.
 VERSION = 1
 
 
 def numerics_key() -> dict:
-    """Versions of numpy, scipy and numba (their BLAS and LAPACK set a solution's last bits):
-    part of the disk keys, so that a cache written under other libraries is not served."""
+    """numpy, scipy and numba versions (BLAS and LAPACK set the last bits): part of disk keys."""
     import numba
     import scipy
 
@@ -28,8 +24,7 @@ def numerics_key() -> dict:
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """``out[...] = a @ b`` (2-D) by products of at most ``_PIECE`` multiply-adds, which
-    OpenBLAS runs on the calling thread (a multithreaded product waits for busy cores)."""
+    """``out[...] = a @ b`` (2-D) in pieces OpenBLAS runs on the calling thread."""
     n, k = a.shape
     m = b.shape[1]
     rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))

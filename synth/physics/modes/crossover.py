@@ -1,7 +1,6 @@
-"""Large free and clamped plates: a band whose Ritz problem would exceed
-:data:`CROSSOVER_UNKNOWNS` per class takes the Ritz modes of a low band and the dynamic edge
-effect modes of :mod:`synth.physics.asymptotic_modes` above it (linear cost; within 0.5 %
-of the Ritz solver, docs/physics.md, "Large free and clamped plates")."""
+"""Large free and clamped plates: a band whose Ritz problem exceeds :data:`CROSSOVER_UNKNOWNS`
+per class takes the Ritz modes of a low band and the edge effect modes above (linear cost;
+within 0.5 % of Ritz, docs/physics.md, "Large free and clamped plates")."""
 
 from __future__ import annotations
 
@@ -15,20 +14,18 @@ from synth.physics.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
 #: Relative accuracy of the edge effect frequencies above a crossed-over plate's Ritz low band,
 #: against the Ritz solver (tests/test_asymptotic_modes.py).
 EDGE_EFFECT_TOLERANCE = 0.005
-# Ritz unknowns per symmetry class (ritz_unknowns) beyond which a band takes the Ritz modes of
-# a low band (LOW_BAND_UNKNOWNS) and the edge effect modes above, avoiding the Ritz solve's
-# cubic growth; just above every preset's band at 48 kHz (their renders keep the Ritz path).
+# Ritz unknowns per class beyond which a band crosses over (the Ritz solve grows cubically);
+# just above every preset's band at 48 kHz.
 CROSSOVER_UNKNOWNS = 1850
-# Ritz size of a crossed-over plate's low band: its lowest modes (the edge effect method's
-# least accurate, corner and beam-like) exact in a fraction of a second.
+# Ritz size of a crossed-over low band: its lowest modes (the edge effect's least accurate)
+# exact in a fraction of a second.
 LOW_BAND_UNKNOWNS = 300
 # Most modes any band may hold (arrays of a few hundred MB per listener beyond).
 _MAX_MODES = 2_000_000
 
 
 def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
-    """The band (dimensionless, at most ``omega_hi``) whose Ritz problem has about ``unknowns``
-    per class (bisection)."""
+    """The band (dimensionless, <= ``omega_hi``) with about ``unknowns`` Ritz unknowns per class."""
     lo, hi = 0.0, omega_hi
     for _ in range(60):
         mid = 0.5 * (lo + hi)
@@ -40,9 +37,8 @@ def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
 
 
 def _seam(omega: np.ndarray, omega_low: float) -> float:
-    """Where the Ritz modes ``omega`` hand over to the edge effect ones: the middle of the widest
-    relative gap in the top third of ``omega <= omega_low`` (an edge mode's error does not
-    move it across)."""
+    """Where the Ritz modes hand over: the middle of the widest relative gap in the top third of
+    ``omega <= omega_low`` (an edge mode's error does not move it across)."""
     band = omega[(omega >= omega_low * 2.0 / 3.0) & (omega <= omega_low)]
     if band.size < 2:
         return omega_low
@@ -52,8 +48,7 @@ def _seam(omega: np.ndarray, omega_low: float) -> float:
 
 
 class HybridSolution:
-    """Ritz modes up to ``omega_low`` followed by the dynamic edge effect modes above
-    it, up to ``omega_max`` (dimensionless, as :class:`RitzSolution`)."""
+    """Ritz modes to ``omega_low``, edge effect modes above to ``omega_max`` (dimensionless)."""
 
     def __init__(self, ritz: RitzSolution, omega_low: float, edge, omega_max: float):
         omega_low = _seam(ritz.omega, omega_low)
@@ -82,8 +77,7 @@ class HybridSolution:
         return out
 
     def shapes_of(self, xi, eta, index):
-        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the first modes'
-        shapes, the edge effect ones alone."""
+        """Shapes of modes ``index``: Ritz ones from the first modes' columns, edge ones alone."""
         n_r = int(np.searchsorted(index, self.n_low))
         out = np.empty((xi.size, index.size))
         if n_r:

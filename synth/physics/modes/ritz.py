@@ -74,8 +74,7 @@ class RitzSolution:
     info: dict
     nbytes: int = field(init=False)
     key: str = field(init=False)
-    # Dense coefficient tensors of _grouped, by (class, modes, grouped axis): the latest
-    # few are kept (a grid is usually evaluated chunk by chunk).
+    # dense coefficient tensors, the latest few kept (grids are evaluated chunk by chunk)
     _dense: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self):
@@ -90,9 +89,8 @@ class RitzSolution:
         self.key = json.dumps({"solution": solution, "omega_max": omega_max}, sort_keys=True)
 
     def _dense_coefficients(self, c, m, axis):
-        """Class ``c``'s first ``m`` modes' coefficients as a dense ``(n_s, n_t * m)`` matrix, ``s``
-        the degrees along ``axis`` (0: xi, 1: eta) and ``t`` the other's, one parity each (degree
-        ``d`` at ``d // 2``), zero where the basis has no such pair. Read-only, cached."""
+        """Class ``c``'s first ``m`` modes' coefficients as a dense ``(n_s, n_t * m)`` matrix
+        along ``axis``, zero where the basis has no pair. Read-only, cached."""
         key = (c, m, axis)
         dense = self._dense.get(key)
         if dense is None:
@@ -107,9 +105,8 @@ class RitzSolution:
         return dense
 
     def shapes(self, xi, eta, n_modes):
-        """Shapes ``(len(xi), n_modes)`` of the first modes at ``(xi, eta)``: each class a block of
-        columns by matrix products, put in frequency order at the end; points sharing a coordinate
-        share the partial sum; temporaries below ``CHUNK_ELEMENTS`` doubles."""
+        """Shapes ``(len(xi), n_modes)`` of the first modes at ``(xi, eta)`` by matrix products per
+        class; shared coordinates share partial sums; temporaries below ``CHUNK_ELEMENTS``."""
         out = np.empty((xi.size, n_modes))
         if n_modes == 0 or xi.size == 0:
             return out
@@ -117,8 +114,6 @@ class RitzSolution:
         cls = self.cls[:n_modes]
         counts = np.bincount(cls, minlength=4)
         start = np.concatenate(([0], np.cumsum(counts)))
-        # A class's modes come in the order of its columns (ascending frequency):
-        # class c's j-th mode is column start[c] + j of the block layout.
         parts = [
             (
                 c,
@@ -156,8 +151,7 @@ class RitzSolution:
         return out
 
     def summed(self, n_modes, length, width, wavenumber):
-        """The first ``n_modes`` shapes as :class:`SummedShapes` of a ``length`` x ``width`` (m)
-        plate whose largest bending wavenumber is ``wavenumber`` (rad/m)."""
+        """First ``n_modes`` shapes as :class:`SummedShapes` (``length``, ``width`` m; rad/m)."""
         cls = self.cls[:n_modes]
         n_x = max(int(I.max()) for I, _ in self.index) + 1
         n_y = max(int(J.max()) for _, J in self.index) + 1
@@ -172,9 +166,8 @@ class RitzSolution:
         return SummedShapes(length, width, wavenumber, n_x, n_y, n_modes, alpha, tuple(parts), self)
 
     def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
-        """Shapes at points sharing values of the ``axis`` coordinate (0: xi, 1: eta), point
-        ``p`` at ``u[inv[p]]``, ``v[inv_v[p]]``, into ``out``'s blocks of ``parts``: the grouped
-        sum once per distinct ``u``, then each point's sum over the other."""
+        """Shapes at points sharing ``axis`` coordinates into ``out``: the grouped sum once per
+        distinct ``u``, then each point's sum over the other."""
         deg = [(I, J) if axis == 0 else (J, I) for *_, I, J in parts]
         ps = 2.0 * basis_1d(alpha, max(int(S.max()) for S, _ in deg) + 1, u)[0]
         pv = basis_1d(alpha, max(int(T.max()) for _, T in deg) + 1, v)[0]
@@ -218,8 +211,7 @@ def _index_sets(kx: float, ky: float, check: bool = False) -> list:
 
 
 def _check_unknowns(kx: float, ky: float) -> float:
-    """Estimated unknowns of the check basis' largest class: the kept pairs fill about pi/4 of
-    the rectangle of the largest degrees, a quarter per class."""
+    """Estimated unknowns of the check basis' largest class (pi/4 of the degree rectangle / 4)."""
     nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
     ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
     return math.pi / 16.0 * nx_max * ny_max
@@ -231,10 +223,8 @@ def ritz_unknowns(aspect: float, omega: float) -> float:
 
 
 def first_basis(aspect: float, omega: float):
-    """The first main basis :func:`solve_ritz` tries for ``omega`` (dimensionless), without any
-    matrix (for :mod:`synth.cost`): the most degrees of one parity along an axis (a grid's
-    shape terms per mode), the factors ``(n_x, n_y)`` of :meth:`RitzSolution.summed`, and the
-    unknowns of each class's main and check bases."""
+    """The first main basis for ``omega`` without any matrix (for :mod:`synth.cost`): degrees
+    along an axis, the factors ``(n_x, n_y)`` and each class's unknowns."""
     kx, ky = _wavenumbers(aspect, omega)
     sets = _index_sets(kx, ky)
     degrees = int(max([1] + [np.unique(a).size for ij in sets for a in ij]))
@@ -245,8 +235,8 @@ def first_basis(aspect: float, omega: float):
 
 
 def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
-    """``(lam, vec, lam_check)`` of each class (:func:`solve_class`); ``one_thread``: on one BLAS
-    thread (a multithreaded LAPACK call stalls on busy cores)."""
+    """``(lam, vec, lam_check)`` of each class; ``one_thread``: one BLAS thread (a multithreaded
+    LAPACK call stalls on busy cores)."""
 
     def solve(c):
         lam, vec = solve_class(problem, *main[c], lam_cut, True)
@@ -262,8 +252,7 @@ def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
 
 
 def _bases(aspect: float, omega_req: float, grow: float):
-    """The main and check bases for ``omega_req``, wavenumbers times ``grow``; ``TooLarge`` past
-    the dense solver (refused on the estimate before any index set)."""
+    """Main and check bases for ``omega_req``; ``TooLarge`` past the dense solver."""
     kx, ky = _wavenumbers(aspect, omega_req, grow)
     if _check_unknowns(kx, ky) > _MAX_UNKNOWNS:
         raise TooLarge(int(_check_unknowns(kx, ky)))
@@ -275,8 +264,7 @@ def _bases(aspect: float, omega_req: float, grow: float):
 
 
 def _elastic(boundary: str, c: int, lam, vec, lam2):
-    """The class's eigenpairs without the free plate's rigid-body motion (classes 0-2 hold one
-    of 1, xi, eta: a zero eigenvalue each)."""
+    """The class's eigenpairs without the free plate's rigid-body modes (zero eigenvalues)."""
     if boundary != "free" or c == 3:
         return lam, vec, lam2
     if not (lam.size and lam2.size and abs(lam[0]) < 1e-6 * SHIFT and abs(lam2[0]) < 1e-6 * SHIFT):
@@ -359,10 +347,9 @@ class TooLarge(Exception):
 
 @dataclass(frozen=True, eq=False)
 class SummedShapes:
-    """Shapes as sums of products ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (``X_i(x) = psi_i(2
-    x / a - 1)``): a weighted sum over points is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y``
-    one matrix for every mode (:meth:`combine`). ``length``, ``width``: m; ``wavenumber``: the
-    largest, rad/m; ``n_x``, ``n_y``: the factors' counts; ``n_modes``."""
+    """Shapes ``phi_k = sum_ij C_kij X_i(x) Y_j(y)``: a weighted sum over points is ``sum_ij
+    C_kij A_ij`` with one ``A = X^T diag(w) Y`` for every mode. ``length``, ``width``,
+    ``wavenumber``: m, rad/m."""
 
     length: float
     width: float
@@ -393,8 +380,7 @@ class SummedShapes:
         return basis_1d(self._alpha, self.n_y, eta)[0]
 
     def combine(self, sums: np.ndarray, modes: np.ndarray | None = None) -> np.ndarray:
-        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode or the increasing ``modes``:
-        ``sums`` (n, n_x, n_y) gives (n, n_modes), one matrix product per symmetry class."""
+        """``out[r, k] = sum_ij C_kij sums[r, i, j]``, one matrix product per class."""
         flat = np.ascontiguousarray(sums, dtype=float).reshape(sums.shape[0], -1)
         width = self.n_modes if modes is None else len(modes)
         out = np.empty((flat.shape[0], width))
