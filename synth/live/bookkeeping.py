@@ -270,7 +270,7 @@ def watch_device(engine_ref, stream) -> None:
         why = engine._lost()
         if why is not None:
             engine._device_lost = why
-            callback = engine._on_device_lost
+            callback = engine.options.on_device_lost
             del engine
             if callback is not None:
                 callback(why)

@@ -52,17 +52,8 @@ class Engine(EngineBookkeeping):
 
     def __init__(self, **settings):
         self.options = o = EngineOptions(**settings)
-        self.samplerate, self.blocksize, self.device, self.channels = (
-            o.samplerate, o.blocksize, o.device, o.channels)  # fmt: skip
-        self.latency_setting, self.callback, self.handover = o.latency, o.callback, o.handover
-        self.max_pending, self.max_hits_per_block = o.max_pending, o.max_hits_per_block
-        self.pulse_points, self.max_frequency = o.pulse_points, o.max_frequency
-        self.max_voices, self.max_rolls = o.max_voices, o.max_rolls
-        self.max_total_voices = o.max_total_voices
-        self._on_device_lost = o.on_device_lost
         self._device_lost: str | None = None  # why, once the watchdog found it lost
         self._voice_limit = VoiceLimit(o.max_total_voices)
-        self._fade = o.fade
         roller = _compile_the_block(rolling=self.max_rolls > 0)
         self._native = st.EngineState(o, roller, events=EVENT_CAPACITY)
         self.master_gain_db = o.master_gain_db
@@ -286,7 +277,7 @@ class Engine(EngineBookkeeping):
             stream = open_stream(
                 sd, self._native, self.callback, samplerate=self.samplerate,
                 blocksize=self.blocksize, device=self.device, channels=self.channels,
-                latency=self.latency_setting,
+                latency=self.options.latency,
             )  # fmt: skip
         except sd.PortAudioError as exc:
             raise SynthError(
@@ -375,3 +366,14 @@ Engine.__init__.__signature__ = inspect.Signature(
     [inspect.Parameter("self", inspect.Parameter.POSITIONAL_ONLY)]
     + checks.keyword_parameters(EngineOptions)
 )
+
+
+def _option(name: str) -> property:
+    return property(lambda engine: getattr(engine.options, name), doc=f"``options.{name}``")
+
+
+#: The options an engine is read by, attributes of its own as well (read-only).
+for _name in ("samplerate", "blocksize", "device", "channels", "callback", "handover",
+              "max_pending", "max_hits_per_block", "pulse_points", "max_frequency",
+              "max_voices", "max_rolls", "max_total_voices"):  # fmt: skip
+    setattr(Engine, _name, _option(_name))

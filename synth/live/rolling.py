@@ -293,7 +293,7 @@ def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
     fv[rb.F_ANCHOR] = s0
     fv[rb.F_PREVIOUS] = fv[rb.F_SPEED] = fv[rb.F_BEFORE] = 0.0
     arrays["roll_y"][r] = state.vector
-    fade = max(1, int(round(body._engine._fade * fs)))
+    fade = max(1, int(round(body._engine.options.fade * fs)))
     values = {
         rb.I_MIDDLE: 1, rb.I_FRONT: 0, rb.I_BACK: 2, rb.I_STOP: -1, rb.I_FADE_FROM: -1,
         rb.I_FADE_LEN: 1, rb.I_END_FADE: fade, rb.I_ENDED: 0, rb.I_STEPS: 0, rb.I_FRAMES: 0,

@@ -123,7 +123,8 @@ def check_gain(gain) -> float:
 
 def stop_frames(engine, fade: float | None) -> int:
     """A stop fade of ``fade`` s (None: the engine's ``fade``), checked, in frames (>= 1)."""
-    f = closed("fade", engine._fade if fade is None else fade, MIN_STOP_FADE, MAX_STOP_FADE, "s")
+    fade = engine.options.fade if fade is None else fade
+    f = closed("fade", fade, MIN_STOP_FADE, MAX_STOP_FADE, "s")
     return max(1, int(round(f * engine.samplerate)))
 
 
