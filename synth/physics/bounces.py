@@ -102,11 +102,7 @@ class BounceOptions:
     rebound: ReboundRule | None = None
 
     def __post_init__(self):
-        floor = checks.real("floor_db", self.floor_db, "dB")
-        if not floor < 0.0:
-            raise ParameterError(
-                f"floor_db={self.floor_db!r} must be < 0 (dB relative to the first tick)"
-            )
+        floor = checks.in_range("floor_db", self.floor_db, -math.inf, 0.0, "dB re the first tick")
         object.__setattr__(self, "floor_db", floor)
         object.__setattr__(
             self, "max_duration", checks.positive("max_duration", self.max_duration, "s")
@@ -296,18 +292,12 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
     c = scene.contact
     plate = scene_plate(scene).plate  # contact.plate, or the choice of "auto"
     return simulate_bounces(
-        scene.ball,
-        scene.plate,
-        drop_height=scene.drop_height,
-        position=scene.position,
-        gravity=scene.gravity,
-        contact_law=c.law,
-        rtol=c.rtol,
+        scene.ball, scene.plate, drop_height=scene.drop_height, position=scene.position,
+        gravity=scene.gravity, contact_law=c.law, rtol=c.rtol,
         **({"plate_model": plate} if plate != "impedance" else {}),
         **({"theory": c.theory} if c.theory != "kirchhoff" and plate == "modal" else {}),
-        **c.options(),
-        **options,
-    )
+        **c.options(), **options,
+    )  # fmt: skip
 
 
 def _moving_scene_bounces(scene: Scene, options: dict) -> BounceSequence:

@@ -189,12 +189,8 @@ def damping_text(d) -> str:
 
 def table_markdown() -> str:
     """The built-in table in Markdown: density (kg/m^3), E (GPa), nu, damping, source."""
-    lines = [
-        "| name | density (kg/m^3) | E (GPa) | nu | damping | source |",
-        "|---|---|---|---|---|---|",
-    ]
-    for key in names():
-        m = TABLE[key]
+    lines = ["| name | density (kg/m^3) | E (GPa) | nu | damping | source |", "|" + "---|" * 6]
+    for m in (TABLE[key] for key in names()):
         source = m.source.replace("|", "\\|")
         lines.append(
             f"| {m.name} | {m.density:g} | {m.young / 1e9:.4g} | {m.poisson:g} | "
@@ -216,15 +212,11 @@ class ContactSurface:
     source: str = ""
 
     def __post_init__(self):
-        for name, value in (
-            ("transverse_ratio", checks.in_range(
-                "transverse_ratio", self.transverse_ratio, 0.0, 1.0, "dimensionless",
-                hi_open=False,
-            )),
-            ("dissipation", checks.nonnegative("dissipation", self.dissipation, "s/m")),
-            ("viscous_time", checks.nonnegative("viscous_time", self.viscous_time, "s")),
-        ):  # fmt: skip
-            object.__setattr__(self, name, value)
+        ratio = checks.in_range("transverse_ratio", self.transverse_ratio, 0.0, 1.0,
+                                "dimensionless", hi_open=False)  # fmt: skip
+        object.__setattr__(self, "transverse_ratio", ratio)
+        for name, unit in (("dissipation", "s/m"), ("viscous_time", "s")):
+            object.__setattr__(self, name, checks.nonnegative(name, getattr(self, name), unit))
         if (self.dissipation == 0.0) == (self.viscous_time == 0.0):
             raise ParameterError(
                 f"dissipation={self.dissipation!r} (s/m) and viscous_time={self.viscous_time!r} "
@@ -253,27 +245,19 @@ SURFACES: dict[str, ContactSurface] = dict.fromkeys(("mdf-18", "mdf-12", "mdf-6"
 
 def contact_surface(material: Material) -> ContactSurface:
     """The fitted :class:`ContactSurface` of a table material, else ``ParameterError``."""
-    surface = SURFACES.get(getattr(material, "name", None))
-    if (
-        surface is None
-        or not isinstance(material, Material)
-        or TABLE.get(material.name) != replace(material, transverse_shear=None)
-    ):
+    if not has_contact_surface(material):
         raise ParameterError(
             f"plate.material={getattr(material, 'name', material)!r} has no fitted contact "
             f"surface (contact.surface='fitted' needs one of {sorted(SURFACES)}, as in the "
             f"built-in table)"
         )
-    return surface
+    return SURFACES[material.name]
 
 
 def has_contact_surface(material: Material) -> bool:
     """True if ``material`` has a fitted :class:`ContactSurface`."""
-    try:
-        contact_surface(material)
-    except ParameterError:
-        return False
-    return True
+    named = isinstance(material, Material) and material.name in SURFACES
+    return named and TABLE.get(material.name) == replace(material, transverse_shear=None)
 
 
 def with_transverse_shear(material: Material) -> Material:

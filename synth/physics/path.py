@@ -229,14 +229,8 @@ def _profile(rolling, length):
 
 def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
     """The rolling after ``bounces``: its part, end, time (s) and coordinate (m)."""
-    ball, plate, g, c, rolling = (
-        scene.ball,
-        scene.plate,
-        scene.gravity,
-        scene.contact,
-        scene.rolling,
-    )
-    u, s_edge, speed, v_out = bounces.direction, bounces.edge, bounces.speed, bounces.rebound_speed
+    ball, g, c, rolling = scene.ball, scene.gravity, scene.contact, scene.rolling
+    s_edge, speed, v_out = bounces.edge, bounces.speed, bounces.rebound_speed
     t_sep, s_sep = bounces.separation_time, bounces.separation_position
     R, m = ball.radius, ball.mass
     # the first sample boundary at or after the separation
@@ -256,8 +250,8 @@ def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
             vertical_velocity=v_out - g * d,
         )  # fmt: skip
     roller = rolling_contact.Roller.over(
-        ball, plate, envelope, samplerate=fs, origin=path_origin, direction=u, contact=c.law,
-        gravity=g, **c.options(),
+        ball, scene.plate, envelope, samplerate=fs, origin=path_origin,
+        direction=bounces.direction, contact=c.law, gravity=g, **c.options(),
     )  # fmt: skip
     if x0 < x_end:
         # every block's centre stays in [x0, x_end] (block_speeds): checked once for all
@@ -302,11 +296,8 @@ def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
     forces, centres, speeds = np.concatenate(chunks, axis=1)
     # the touching points of every period at once (as roll gives them)
     coordinate = roller.contact_coordinates(centres) + behind
-    part = RollingPart(
-        fs,
-        start, forces, coordinate, speeds,
-        0.0 if end == "left-plate" else m * g, energy, flights,
-    )  # fmt: skip
+    final_force = 0.0 if end == "left-plate" else m * g
+    part = RollingPart(fs, start, forces, coordinate, speeds, final_force, energy, flights)
     return part, end, start + n_done / fs, float(coordinate[-1])
 
 

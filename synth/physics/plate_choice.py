@@ -37,8 +37,7 @@ class PlateChoice:
 
 def energy_shares_above(result, omegas) -> list[float]:
     """Shares of the pulse energy above each of ``omegas`` (rad/s), from one zero-padded FFT."""
-    tau = result.separation_time
-    t = np.linspace(0.0, tau, PULSE_SAMPLES)
+    t = np.linspace(0.0, result.separation_time, PULSE_SAMPLES)
     f = np.asarray(result.force_at(t), dtype=float)
     dt = t[1] - t[0]
     spectrum = np.abs(np.fft.rfft(f, TRANSFORM_LENGTH)) ** 2
@@ -72,12 +71,8 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
     taken = result.plate_energy / (0.5 * ball_mass * speed * speed)
     e = result.restitution
     bound = taken * contrast / (2.0 * e) if e > 0.0 and not result.settled else taken * contrast
-    return PlateChoice(
-        "modal" if bound > TOLERANCE else "impedance",
-        bound,
-        (dx, dy),
-        (omegas[0] / (2.0 * math.pi), omegas[1] / (2.0 * math.pi)),
-    )
+    frequencies = (omegas[0] / (2.0 * math.pi), omegas[1] / (2.0 * math.pi))
+    return PlateChoice("modal" if bound > TOLERANCE else "impedance", bound, (dx, dy), frequencies)
 
 
 def scene_plate(scene) -> PlateChoice:

@@ -142,27 +142,21 @@ def _direction(direction) -> tuple[float, float]:
     return dx / norm, dy / norm
 
 
-def roll(
-    ball: Ball,
-    plate: Plate,
-    envelope: ContactEnvelope,
-    *,
-    speed,
-    samplerate: int,
-    origin,
-    duration: float | None = None,
-    start: float | None = None,
-    state: RollingState | None = None,
-    **options,
-) -> RollingContact:
+def roll(ball: Ball, plate: Plate, envelope: ContactEnvelope, *, speed, samplerate: int, origin,
+         **options) -> RollingContact:  # fmt: skip
     """Roll ``ball`` over ``plate`` along ``envelope`` (made with ``ball.radius``). ``speed``:
     m/s (>= 0), one for ``duration`` (s, at most :data:`MAX_DURATION`) or one per sample period
     of ``samplerate`` (Hz). ``origin``: the path's 0 on the plate, m. ``start``: the centre's
     path coordinate at time 0, m (pressed with ``m (g + v^2 e''(s0))``, as a ball rolled there
-    slowly); or ``state`` to continue (consecutive calls give the bits of one call).
+    slowly); or ``state`` to continue (consecutive calls give the bits of one call). The other
     ``options``: :meth:`Roller.over`'s."""
+    where = {k: options.pop(k) for k in ("duration", "start", "state") if k in options}
     roller = Roller.over(ball, plate, envelope, samplerate=samplerate, origin=origin, **options)
-    return roller.roll(speed, duration=duration, start=start, state=state)
+    return roller.roll(speed, **where)
+
+
+#: :meth:`Roller.over`'s settings beside the contact law's options, and their defaults.
+SETTINGS = {"admittance": None, "gravity": GRAVITY, "rtol": 1e-6, "landing_speed": 1.0}
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,26 +176,13 @@ class Roller:
     landing_speed: float
 
     @classmethod
-    def over(
-        cls,
-        ball: Ball,
-        plate: Plate,
-        envelope: ContactEnvelope,
-        *,
-        samplerate: int,
-        origin,
-        direction=(1.0, 0.0),
-        contact: str = "hertz",
-        admittance: float | None = None,
-        gravity: float = GRAVITY,
-        rtol: float = 1e-6,
-        landing_speed: float = 1.0,
-        **contact_options,
-    ) -> Roller:
-        """The :class:`Roller` of :func:`roll`'s arguments. ``admittance``: m/(N s) (0: rigid;
-        default ``1 / Z_inf``); ``gravity``: m/s^2; ``rtol`` in [1e-12, 1e-2] on penetration and
-        vertical speed; ``landing_speed`` (m/s): the fastest landing a step cannot miss (a step
-        at most half its elastic contact, ``2 delta_max / u``, and a sample period)."""
+    def over(cls, ball: Ball, plate: Plate, envelope: ContactEnvelope, *, samplerate: int, origin,
+             direction=(1.0, 0.0), contact: str = "hertz", **options) -> Roller:  # fmt: skip
+        """The :class:`Roller` of :func:`roll`'s arguments; ``options``: the law's and the
+        :data:`SETTINGS`: ``admittance`` m/(N s) (0: rigid; default ``1 / Z_inf``), ``gravity``
+        m/s^2, ``rtol`` in [1e-12, 1e-2] on penetration and vertical speed, ``landing_speed``
+        (m/s): the fastest landing a step cannot miss (a step at most half its elastic contact,
+        ``2 delta_max / u``, and a sample period)."""
         check_type("ball", ball, Ball)
         check_type("plate", plate, Plate)
         check_type("envelope", envelope, ContactEnvelope)
@@ -210,18 +191,19 @@ class Roller:
                 f"envelope.radius={envelope.radius!r} must be the ball's radius "
                 f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
             )
+        o = {k: options.pop(k, default) for k, default in SETTINGS.items()}
         beta = (
             1.0 / impedance.infinite_plate_impedance(plate)
-            if admittance is None
-            else checks.nonnegative("admittance", admittance, "m/(N s)")
+            if o["admittance"] is None
+            else checks.nonnegative("admittance", o["admittance"], "m/(N s)")
         )
         return cls(
-            plate, ball.mass, contact_parameters(ball, plate, contact, **contact_options), beta,
-            checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2"),
-            checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False,
+            plate, ball.mass, contact_parameters(ball, plate, contact, **options), beta,
+            checks.positive_at_most("gravity", o["gravity"], MAX_GRAVITY, "m/s^2"),
+            checks.in_range("rtol", o["rtol"], 1e-12, 1e-2, "dimensionless", lo_open=False,
                             hi_open=False),
             checks.samplerate(samplerate), envelope, checks.point("origin", origin, 2),
-            _direction(direction), checks.positive("landing_speed", landing_speed, "m/s"),
+            _direction(direction), checks.positive("landing_speed", o["landing_speed"], "m/s"),
         )  # fmt: skip
 
     def roll(

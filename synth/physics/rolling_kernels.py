@@ -331,7 +331,8 @@ LEFT_PLATE = 2
 
 @compiled()
 def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
-    """X"""
+    """An upper bound (m) of the travel of ``count`` periods at the monotone speeds ``planned``
+    (m/s) from ``x`` (m), with a margin for rounding."""
     travel = count * max(planned[0], planned[count - 1]) / samplerate
     return travel + 1e-9 * (travel + abs(x))
 

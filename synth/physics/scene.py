@@ -279,6 +279,9 @@ PLATE_MODELS = ("impedance", "modal", "auto")
 DEFAULT_CONTACT_MODEL = "measured"
 #: The modal plate's theory of a :class:`Contact` that names none.
 DEFAULT_PLATE_THEORY = "kirchhoff"
+#: The laws' parameters > 0 and their units (``exponent`` is in (1, 4]).
+_POSITIVE_OPTIONS = {"dissipation": "s/m", "viscous_time": "s", "stiffness": "N/m^n",
+                     "layer_depth": "metres"}  # fmt: skip
 #: The parameters each law needs (the others need none).
 _LAW_NEEDS = {
     "hunt-crossley": ("dissipation",),
@@ -340,20 +343,13 @@ class Contact:
                 f"{self.law!r}"
             )
         _set(self, rtol=_closed("contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless"))
-        for name, unit in (
-            ("dissipation", "s/m"),
-            ("viscous_time", "s"),
-            ("stiffness", "N/m^n"),
-            ("layer_depth", "metres"),
-        ):
-            value = getattr(self, name)
-            if value is not None:
-                _set(self, **{name: checks.positive(f"contact.{name}", value, unit)})
+        for name, unit in _POSITIVE_OPTIONS.items():
+            if getattr(self, name) is not None:
+                _set(self, **{name: checks.positive(f"contact.{name}", getattr(self, name), unit)})
         if self.exponent is not None:
-            exponent = checks.in_range(
-                "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
-            )
-            _set(self, exponent=exponent)
+            n = checks.in_range("contact.exponent", self.exponent, 1.0, 4.0, "dimensionless",
+                                hi_open=False)  # fmt: skip
+            _set(self, exponent=n)
         needs = _LAW_NEEDS.get(self.law, ())
         allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
         for name in LAW_OPTIONS:
@@ -369,8 +365,7 @@ class Contact:
         """``law``, ``plate`` and ``surface`` not given: the ``model``'s."""
         model = DEFAULT_CONTACT_MODEL if self.model is None else self.model
         checks.choice("contact.model", model, CONTACT_MODELS)
-        defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
-        for key, value in defaults.items():
+        for key, value in zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True):
             if getattr(self, key) is None:
                 _set(self, **{key: value})
 
@@ -424,9 +419,7 @@ class Rolling:
 
         if self.rms_height == 0.0:
             return None
-        return RoughnessSpectrum(
-            rms_height=self.rms_height, correlation_length=self.correlation_length, hurst=self.hurst
-        )
+        return RoughnessSpectrum(self.rms_height, self.correlation_length, self.hurst)
 
 
 @dataclass(frozen=True)

@@ -90,11 +90,9 @@ class RoughnessSpectrum:
     hurst: float
 
     def __post_init__(self):
-        top, unit = MAX_ROUGHNESS_SCALE, "metres"
         for key in ("rms_height", "correlation_length"):
-            object.__setattr__(
-                self, key, checks.positive_at_most(key, getattr(self, key), top, unit)
-            )
+            value = checks.positive_at_most(key, getattr(self, key), MAX_ROUGHNESS_SCALE, "metres")
+            object.__setattr__(self, key, value)
         hurst = checks.in_range("hurst", self.hurst, 0.0, 1.0, "dimensionless", hi_open=False)
         object.__setattr__(self, "hurst", hurst)
 
@@ -155,12 +153,6 @@ def _check_grid(length, spacing) -> tuple[float, float, int]:
     return L, dx, n
 
 
-def _seed(seed) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError(f"seed={seed!r} must be an integer >= 0")
-    return int(seed)
-
-
 def rough_profile(
     spectrum: RoughnessSpectrum, *, length: float, spacing: float, seed: int
 ) -> Profile:
@@ -170,7 +162,9 @@ def rough_profile(
     if not isinstance(spectrum, RoughnessSpectrum):
         raise ParameterError(f"spectrum={spectrum!r} must be a RoughnessSpectrum")
     L, dx, n = _check_grid(length, spacing)
-    s = _seed(seed)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ParameterError(f"seed={seed!r} must be an integer >= 0")
+    s = int(seed)
     m_total = _synthesis_size(L, dx, spectrum.correlation_length)
     k = 2.0 * math.pi * np.arange(m_total // 2 + 1) / (m_total * dx)
     variance = spectrum.density(k) / (m_total * dx)
@@ -179,14 +173,12 @@ def rough_profile(
     coef = rng.standard_normal(k.size) + 1j * rng.standard_normal(k.size)
     coef *= np.sqrt(0.5 * variance)
     coef[-1] = coef[-1].real * math.sqrt(2.0)  # the Nyquist term is real, of full variance
-    heights = np.fft.irfft(coef, n=m_total)[:n] * m_total
-    s_ = spectrum
-    return Profile(
-        read_only(np.ascontiguousarray(heights)),
-        dx,
-        f"Matern roughness: rms_height={s_.rms_height:g} m, correlation_length="
-        f"{s_.correlation_length:g} m, hurst={s_.hurst:g}, seed={s}, spacing={dx:g} m",
-    )
+    heights = np.ascontiguousarray(np.fft.irfft(coef, n=m_total)[:n] * m_total)
+    sp = spectrum
+    return Profile(read_only(heights), dx, (
+        f"Matern roughness: rms_height={sp.rms_height:g} m, correlation_length="
+        f"{sp.correlation_length:g} m, hurst={sp.hurst:g}, seed={s}, spacing={dx:g} m"
+    ))  # fmt: skip
 
 
 def _synthesis_size(length: float, spacing: float, correlation_length: float) -> int:
@@ -225,12 +217,9 @@ def sinusoidal_profile(
             f"wavelength={wavelength!r} must be >= 4 * spacing = {4.0 * dx!r} (metres) to be "
             f"sampled"
         )
-    x = np.arange(n) * dx
-    return Profile(
-        read_only(A * np.sin(2.0 * math.pi / lam * x + phi)),
-        dx,
-        f"sinusoid: amplitude={A:g} m, wavelength={lam:g} m, phase={phi:g} rad, spacing={dx:g} m",
-    )
+    heights = read_only(A * np.sin(2.0 * math.pi / lam * (np.arange(n) * dx) + phi))
+    text = f"amplitude={A:g} m, wavelength={lam:g} m, phase={phi:g} rad, spacing={dx:g} m"
+    return Profile(heights, dx, f"sinusoid: {text}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -268,14 +257,8 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
     off = np.empty(h.size)
     x = np.arange(h.size) * dx
     _dilate(np.ascontiguousarray(h), _spline(x, h), dx, R, _cap_depths(dx, R, window), e, off)
-    return ContactEnvelope(
-        read_only(e),
-        read_only(off),
-        dx,
-        R,
-        f"{profile.description}; ball radius={R:g} m",
-        _spline(x, e),
-    )
+    text = f"{profile.description}; ball radius={R:g} m"
+    return ContactEnvelope(read_only(e), read_only(off), dx, R, text, _spline(x, e))
 
 
 def _spline(x, y) -> np.ndarray:

@@ -111,20 +111,14 @@ class EdgeEffectSolution:
         """Factors ``X_t(xi)``, ``Y_t(eta)`` (mean square 1) of the first ``n_trials`` trials at
         ``xi``, ``eta`` in [-1, 1]: ``(len(xi), n_trials)`` and ``(len(eta), n_trials)``."""
         m = slice(0, n_trials)
-        return tuple(
-            self._factor_table(axis, np.ascontiguousarray(u, dtype=float), m)
-            for axis, u in enumerate((xi, eta))
-        )
+        return tuple(self._factor_table(a, np.ascontiguousarray(u, dtype=float), m)
+                     for a, u in enumerate((xi, eta)))  # fmt: skip
 
-    def _factor_table(self, axis, u, trials):
-        """Factors along ``axis`` (0: x, 1: y) of the trials ``trials`` at ``u`` in [-1, 1]."""
-        (cx, gx), (cy, gy) = self.constants
-        m = trials
-        if axis == 0:
-            h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
-        else:
-            h, s, so, n, c, g = self.half[1], self.sy[m], self.sx[m], self.ny[m], cy[m], gy[m]
-        return factor_table(u * h, s, so, n, h, c, g)
+    def _factor_table(self, axis, u, m):
+        """Factors along ``axis`` (0: x, 1: y) of the trials ``m`` at ``u`` in [-1, 1]."""
+        h, (c, g) = self.half[axis], self.constants[axis]
+        s, so, n = (self.sx, self.sy, self.nx) if axis == 0 else (self.sy, self.sx, self.ny)
+        return factor_table(u * h, s[m], so[m], n[m], h, c[m], g[m])
 
     def _table(self, axis, u, trials):
         """:meth:`_factor_table` at the distinct ``u``, the last two tables per axis kept."""
@@ -139,17 +133,20 @@ class EdgeEffectSolution:
         tables[key] = (u.copy(), trials.copy(), table)
         return table
 
+    def _used_tables(self, pick, u, v):
+        """Modes ``pick``'s trials and partners (-1: none), the trials they use and those
+        trials' factor tables at ``u`` (along x) and ``v`` (along y)."""
+        trial, partner = self.trial[pick], self.partner[pick]
+        used = np.unique(np.concatenate((trial, partner[partner >= 0])))
+        return trial, partner, used, self._table(0, u, used), self._table(1, v, used)
+
     def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
         """Shapes of modes ``first <= k < n_modes`` (or ``index``) at ``(xi, eta)``, or into
         ``out[:, column:column + n]``."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
         pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
-        trial = self.trial[pick]
-        partner = self.partner[pick]
-        used = np.unique(np.concatenate((trial, partner[partner >= 0])))
-        fx = self._table(0, ux, used)
-        fy = self._table(1, uy, used)
+        trial, partner, used, fx, fy = self._used_tables(pick, ux, uy)
         if out is None:
             out, column = np.empty((xi.size, trial.size)), 0
         gather_modes(
@@ -162,12 +159,9 @@ class EdgeEffectSolution:
     def product_factors(self, xi, eta, index):
         """Modes ``index`` as factor tables (as ``EdgeEffectPart.product_factors``)."""
         index = np.asarray(index, dtype=np.int64)
-        trial = self.trial[index]
-        partner = self.partner[index]
+        xi, eta = np.asarray(xi, dtype=float), np.asarray(eta, dtype=float)
+        trial, partner, used, fx, fy = self._used_tables(index, xi, eta)
         paired = partner >= 0
-        used = np.unique(np.concatenate((trial, partner[paired])))
-        fx = self._table(0, np.asarray(xi, dtype=float), used)
-        fy = self._table(1, np.asarray(eta, dtype=float), used)
         own = np.searchsorted(used, trial)
         other = np.searchsorted(used, np.where(paired, partner, trial))
         x_own = self.own[index] * fx[:, own]

@@ -33,19 +33,7 @@ from synth.physics.modal_contact.point import (
 )
 
 __all__ = [
-    "BAND_FACTOR",
-    "PLATE_THEORIES",
-    "RESIDUAL_BINS",
-    "RESIDUAL_RATIO",
-    "SETTLE_FACTOR",
-    "STEPS_PER_CONTACT",
-    "ModalPoint",
-    "ModalContact",
-    "ModalImpactResult",
-    "PlateRinging",
-    "band_modes",
-    "clear_memory_cache",
-    "impedance_contact_time",
-    "modal_point",
-    "next_touch",
-]
+    "BAND_FACTOR", "PLATE_THEORIES", "RESIDUAL_BINS", "RESIDUAL_RATIO", "SETTLE_FACTOR",
+    "STEPS_PER_CONTACT", "ModalPoint", "ModalContact", "ModalImpactResult", "PlateRinging",
+    "band_modes", "clear_memory_cache", "impedance_contact_time", "modal_point", "next_touch"
+]  # fmt: skip

@@ -24,7 +24,7 @@ from synth.physics.modal_contact.kernels import (
     ring_free,
 )
 from synth.physics.modal_contact.point import ModalPoint, modal_point
-from synth.physics.scene import Ball, Plate
+from synth.physics.scene import Ball, Plate, check_type
 
 #: Band limit of the modes in units of ``1 / tau`` (the impedance model's time to separation):
 #: the pulse's spectrum is below -60 dB beyond about ``3 / tau``; the residual covers the rest.
@@ -143,8 +143,7 @@ class ModalContact:
     yield_penetration: float = math.inf
 
     def __post_init__(self):
-        if not isinstance(self.point, ModalPoint):
-            raise ParameterError(f"point={self.point!r} must be a ModalPoint")
+        check_type("point", self.point, ModalPoint)
         checked = check_law_fields(self)
         steps = self.steps_per_contact
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
@@ -171,10 +170,8 @@ class ModalContact:
         """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
         under ``law``. ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the
         impedance model's contact time at ``speed`` (m/s; default 1)."""
-        if not isinstance(ball, Ball):
-            raise ParameterError(f"ball={ball!r} must be a Ball")
-        if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate")
+        check_type("ball", ball, Ball)
+        check_type("plate", plate, Plate)
         law_ = contact_parameters(ball, plate, law, **contact_options)
         if law_.shell is not None:
             raise ParameterError(
@@ -263,17 +260,11 @@ class ModalContact:
         m = self.mass
         ball_in = 0.5 * m * v_in**2
         ball_out = 0.5 * m * o.v**2 + m * self.gravity * (o.u - w0)
-        plate = e_plate - e0 + rigid + o.damping_loss + o.dashpot_loss
-        plate += o.contact_loss
+        plate = e_plate - e0 + rigid + o.damping_loss + o.dashpot_loss + o.contact_loss
         residual = abs(ball_in - ball_out - plate) / max(ball_in, e0, abs(plate), 1e-300)
-        lossy = self.dissipation != 0.0 or self.viscous_time != 0.0
-        if o.separated and (lossy or self.yield_penetration != math.inf):
-            b = 1.5 * self.viscous_time
-            t_force = force_end(
-                times, forces, gaps, rates, self.dissipation, b, self.yield_penetration
-            )
-        else:
-            t_force = o.time
+        t_force = o.time
+        if o.separated and (law.mu != 0.0 or law.b != 0.0 or dy is not None):
+            t_force = force_end(times, forces, gaps, rates, law.mu, law.b, self.yield_penetration)
         message = "The ball separated from the plate." if o.separated else (
             f"The ball did not separate within {SETTLE_FACTOR:g} contact times of the "
             f"impedance model: it rests on the plate."

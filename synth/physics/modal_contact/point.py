@@ -150,17 +150,16 @@ def modal_point(
         omega, coupling = _point_modes(plate, (x, y), fmax)
     lumped = _lumped_residual(plate, omega_band, theory)
     sigma = _decay_rates(plate, omega, fmax)
-    lumped_sigma = lumped.omega * _band_edge_loss(plate, omega_band, fmax)
+    edge_loss = _band_edge_loss(plate, omega_band, fmax)
     # modes with a node at the point take no part in the contact
     keep = coupling > 1e-12 * coupling.max(initial=0.0)
     omega, sigma, coupling = omega[keep], sigma[keep], coupling[keep]
     xi, eta = 2.0 * x / plate.length - 1.0, 2.0 * y / plate.width - 1.0
-    rigid = (
-        (1.0 + 3.0 * xi * xi + 3.0 * eta * eta) / plate.mass if plate.boundary == "free" else 0.0
-    )
+    free = plate.boundary == "free"
+    rigid = (1.0 + 3.0 * xi * xi + 3.0 * eta * eta) / plate.mass if free else 0.0
     return ModalPoint(
         plate, (x, y), fmax, omega, sigma, coupling, rigid, lumped.tail_admittance,
-        lumped.tail_rate, theory, lumped.omega, lumped_sigma, lumped.coupling,
+        lumped.tail_rate, theory, lumped.omega, lumped.omega * edge_loss, lumped.coupling,
     )  # fmt: skip
 
 
@@ -301,16 +300,10 @@ def _point_key(plate: Plate, position, max_frequency: float) -> str:
     """The disk key of the modes at ``position`` (m): every input and the solver's identity."""
     from synth.physics.modes import solver_key
 
-    return json.dumps(
-        dict(
-            _plate_key(plate, max_frequency),
-            x=float(position[0]).hex(),
-            y=float(position[1]).hex(),
-            version=_POINT_VERSION,
-            solver=solver_key(plate, max_frequency),
-        ),
-        sort_keys=True,
-    )
+    x, y = (float(v).hex() for v in position)
+    solver = solver_key(plate, max_frequency)
+    key = dict(_plate_key(plate, max_frequency), x=x, y=y, version=_POINT_VERSION, solver=solver)
+    return json.dumps(key, sort_keys=True)
 
 
 def _load_point(path, key: str):
@@ -324,10 +317,6 @@ def _load_point(path, key: str):
             omega, coupling = z["omega"], z["coupling"]
     except (OSError, ValueError, KeyError):
         return None
-    ok = (
-        omega.ndim == 1
-        and coupling.shape == omega.shape
-        and bool(np.all(np.isfinite(omega)) and np.all(np.isfinite(coupling)))
-        and bool(np.all(omega > 0.0) and np.all(coupling >= 0.0))
-    )
-    return (omega, coupling) if ok else None
+    ok = omega.ndim == 1 and coupling.shape == omega.shape
+    ok = ok and bool(np.all(np.isfinite(omega) & (omega > 0.0) & (coupling >= 0.0)))
+    return (omega, coupling) if ok and bool(np.all(np.isfinite(coupling))) else None

@@ -14,13 +14,15 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.physics.modes.cache import cache_info, cached_ritz, clear_memory_cache
+from synth.physics.modes.cache import band_key, cache_info, cached_ritz, clear_memory_cache
 from synth.physics.modes.closed_form import SeparableShapes, SimplySupported
 from synth.physics.modes.common import numerics_key, single_thread_product
 from synth.physics.modes.crossover import (
     CROSSOVER_UNKNOWNS,
     EDGE_EFFECT_TOLERANCE,
+    LOW_BAND_UNKNOWNS,
     HybridSolution,
+    band_of_unknowns,
     crossed,
 )
 from synth.physics.modes.ritz import (
@@ -35,18 +37,10 @@ from synth.physics.scene import Plate, check_type
 from synth.store.cache import cache_dir
 
 __all__ = [
-    "Modes",
-    "EdgeEffectPart",
-    "modes",
-    "SeparableShapes",
-    "SummedShapes",
-    "TOLERANCE",
-    "EDGE_EFFECT_TOLERANCE",
-    "cache_info",
-    "clear_memory_cache",
-    "cache_dir",
-    "single_thread_product",
-]
+    "Modes", "EdgeEffectPart", "modes", "SeparableShapes", "SummedShapes", "TOLERANCE",
+    "EDGE_EFFECT_TOLERANCE", "cache_info", "clear_memory_cache", "cache_dir",
+    "single_thread_product"
+]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -143,17 +137,13 @@ class Modes:
         try:
             pts = np.asarray(points, dtype=float)
         except (TypeError, ValueError):
-            raise ParameterError(
-                f"points={points!r} must be an (n, 2) array of (x, y) positions (metres)"
-            ) from None
+            pts = np.empty(0)
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise ParameterError(
-                f"points with shape {pts.shape} must be an (n, 2) array of (x, y) "
-                f"positions (metres)"
+                f"points={points!r} must be an (n, 2) array of (x, y) positions (metres)"
             )
+        a, b = self.plate.length, self.plate.width
         bad = ~np.all(np.isfinite(pts), axis=1)
-        p = self.plate
-        a, b = p.length, p.width
         bad |= (pts[:, 0] < 0.0) | (pts[:, 0] > a) | (pts[:, 1] < 0.0) | (pts[:, 1] > b)
         if np.any(bad):
             i = int(np.argmax(bad))
@@ -203,8 +193,6 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
     if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
-        from synth.physics.modes.crossover import LOW_BAND_UNKNOWNS, band_of_unknowns
-
         omega_req = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
     return omega_req
 
@@ -212,7 +200,6 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 def solver_key(plate: Plate, max_frequency: float) -> str:
     """Text identifying the eigen-solution of ``plate`` to ``max_frequency`` (Hz): a cache key."""
     from synth.physics import asymptotic_modes
-    from synth.physics.modes.cache import band_key
 
     if plate.boundary == "simply-supported":
         return json.dumps({"method": "closed-form", "numerics": numerics_key()}, sort_keys=True)
@@ -281,8 +268,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     freq = omega / (2.0 * math.pi)
     n = int(np.searchsorted(freq, fmax, side="right"))
     omega, freq = omega[:n].copy(), freq[:n].copy()
-    sigma = np.asarray(damping.decay_rate(omega), dtype=float)
-    sigma = np.broadcast_to(sigma, omega.shape).copy()
+    sigma = np.broadcast_to(np.asarray(damping.decay_rate(omega), dtype=float), omega.shape).copy()
     mass = np.full(n, plate.mass)
     for arr in (omega, freq, sigma, mass):
         arr.setflags(write=False)

@@ -51,39 +51,32 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
         with load_npz(path) as z:
             if str(z["key"][()]) != key:
                 return None
-            omega_max = float(z["omega_max"][()])
-            omega, cls, col = z["omega"], z["cls"], z["col"]
-            index = [(z[f"I{c}"], z[f"J{c}"]) for c in range(4)]
-            coef = [z[f"coef{c}"] for c in range(4)]
-        n = omega.size
+            omega_max, omega = float(z["omega_max"][()]), z["omega"]
+            cls, col = z["cls"].astype(np.int64), z["col"].astype(np.int64)
+            index = [(z[f"I{c}"].astype(np.int64), z[f"J{c}"].astype(np.int64)) for c in range(4)]
+            coef = [np.ascontiguousarray(z[f"coef{c}"], dtype=float) for c in range(4)]
         ok = (
             omega.ndim == 1
-            and cls.shape == (n,)
-            and col.shape == (n,)
+            and cls.shape == col.shape == omega.shape
             and np.all(np.isfinite(omega))
             and np.all(np.diff(omega) >= 0.0)
-            and math.isfinite(omega_max)
-            and omega_max > 0.0
-            and (n == 0 or (omega[-1] <= omega_max and cls.min() >= 0 and cls.max() <= 3))
+            and 0.0 < omega_max < math.inf
+            and (omega.size == 0 or (omega[-1] <= omega_max and 0 <= cls.min() <= cls.max() <= 3))
         )
-        for c in range(4):
-            I, J = index[c]
-            counts = int(np.sum(cls == c))
+        for c, (I, J) in enumerate(index):
+            n = int(np.sum(cls == c))
             ok = ok and (
                 I.ndim == 1
                 and I.shape == J.shape
-                and coef[c].ndim == 2
-                and coef[c].shape == (I.size, counts)
+                and coef[c].shape == (I.size, n)
                 and np.all(np.isfinite(coef[c]))
-                and np.array_equal(col[cls == c], np.arange(counts))
+                and np.array_equal(col[cls == c], np.arange(n))
             )
         if not ok:
             return None
         return RitzSolution(
-            boundary, nu, aspect, omega_max, omega, cls.astype(np.int64), col.astype(np.int64),
-            [(I.astype(np.int64), J.astype(np.int64)) for I, J in index],
-            [np.ascontiguousarray(cf, dtype=float) for cf in coef], {"source": str(path)},
-        )  # fmt: skip
+            boundary, nu, aspect, omega_max, omega, cls, col, index, coef, {"source": str(path)}
+        )
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None
 

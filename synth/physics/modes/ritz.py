@@ -78,9 +78,7 @@ class RitzSolution:
     _dense: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self):
-        arrays = (
-            self.omega, self.cls, self.col, *[a for ij in self.index for a in ij], *self.coef
-        )  # fmt: skip
+        arrays = (self.omega, self.cls, self.col, *[a for ij in self.index for a in ij], *self.coef)
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(arr.nbytes for arr in arrays)
@@ -114,16 +112,8 @@ class RitzSolution:
         cls = self.cls[:n_modes]
         counts = np.bincount(cls, minlength=4)
         start = np.concatenate(([0], np.cumsum(counts)))
-        parts = [
-            (
-                c,
-                slice(int(start[c]), int(start[c + 1])),
-                self.coef[c][:, : counts[c]],
-                *self.index[c],
-            )
-            for c in range(4)
-            if counts[c]
-        ]
+        parts = [(c, slice(int(start[c]), int(start[c + 1])), self.coef[c][:, : counts[c]],
+                  *self.index[c]) for c in range(4) if counts[c]]  # fmt: skip
         # Group on the coordinate with fewer distinct values, if it has few.
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
@@ -303,14 +293,9 @@ def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> Rit
             keep = int(np.searchsorted(om, omega_req, side="right"))
             lams.append(om[:keep])
             vecs.append(np.ascontiguousarray(vec[:, :keep]))
-        attempts.append(
-            {
-                "grow": grow,
-                "unknowns": [ij[0].size for ij in main],
-                "check_unknowns": [ij[0].size for ij in check],
-                "worst_relative_change": worst,
-            }
-        )
+        unknowns = [ij[0].size for ij in main], [ij[0].size for ij in check]
+        attempts.append(dict(grow=grow, unknowns=unknowns[0], check_unknowns=unknowns[1],
+                             worst_relative_change=worst))  # fmt: skip
         if worst <= TOLERANCE:
             break
         grow *= 1.15
