@@ -202,15 +202,13 @@ def simulate_path(
     """The :class:`BallPath` of ``scene``, the rolling on the grid of ``samplerate`` (Hz)
     through ``time_origin`` (s), followed to ``max_duration`` (s from the release)."""
     b = path_bounces(scene, max_duration=max_duration)
-    if not b.rolls:
-        part, end, end_time, end_point = None, b.impacts.stop_reason, b.separation_time, None
-    else:
+    part, end, end_time, end_point = None, b.impacts.stop_reason, b.separation_time, None
+    if b.rolls:
         part, end, end_time, end_s = _roll(scene, b, int(samplerate), time_origin, max_duration)
         end_point = b.point(end_s)
-    return BallPath(
-        b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time,
-        tuple(b.points[-1]) if end_point is None else end_point,
-    )  # fmt: skip
+    end_point = tuple(b.points[-1]) if end_point is None else end_point
+    return BallPath(b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time,
+                    end_point)  # fmt: skip
 
 
 def _profile(rolling, length):
