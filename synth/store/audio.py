@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 import soundfile
 
+from synth import checks
+from synth.errors import ParameterError, SynthError
+from synth.store.atomic import temporary_sibling, write_atomically
+
 try:
     import resource  # the file size limit (ulimit -f), not on Windows
 except ImportError:
     resource = None
-
-from synth import checks
-from synth.errors import ParameterError, SynthError
-from synth.store.atomic import temporary_sibling, write_atomically
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
