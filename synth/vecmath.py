@@ -48,28 +48,18 @@ def cis(theta):
     return c0 * c_sign, s0 * s_sign
 
 
+#: ``1 / k!`` for ``k = 0 .. 18``: the Taylor coefficients of :func:`exp_small` (exact
+#: factorials, below 2^53).
+_INV_FACTORIALS = tuple(1.0 / math.factorial(k) for k in range(19))
+
+
 @compiled()
 def exp_small(u):
-    """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17)."""
-    e = 1.0 / 6402373705728000.0
-    e = 1.0 / 355687428096000.0 + u * e
-    e = 1.0 / 20922789888000.0 + u * e
-    e = 1.0 / 1307674368000.0 + u * e
-    e = 1.0 / 87178291200.0 + u * e
-    e = 1.0 / 6227020800.0 + u * e
-    e = 1.0 / 479001600.0 + u * e
-    e = 1.0 / 39916800.0 + u * e
-    e = 1.0 / 3628800.0 + u * e
-    e = 1.0 / 362880.0 + u * e
-    e = 1.0 / 40320.0 + u * e
-    e = 1.0 / 5040.0 + u * e
-    e = 1.0 / 720.0 + u * e
-    e = 1.0 / 120.0 + u * e
-    e = 1.0 / 24.0 + u * e
-    e = 1.0 / 6.0 + u * e
-    e = 0.5 + u * e
-    e = 1.0 + u * e
-    return 1.0 + u * e
+    """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17), by Horner."""
+    e = _INV_FACTORIALS[18]
+    for k in range(17, -1, -1):  # a fixed count: unrolled, so that a loop over modes vectorises
+        e = _INV_FACTORIALS[k] + u * e
+    return e
 
 
 @compiled()

@@ -1891,11 +1891,11 @@ def test_bank_gain_brings_the_median_loudness_to_its_level(serial, tmp_path):
 SLOW_GAIN = """
 import sys, time
 from synth.bank import gain
-scale = gain._scale_file
+encode = gain.encode
 def slow(*args):
     time.sleep(0.25)
-    return scale(*args)
-gain._scale_file = slow
+    return encode(*args)
+gain.encode = slow
 gain.apply_gain(sys.argv[1], sys.argv[2])
 """
 

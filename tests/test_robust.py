@@ -271,15 +271,15 @@ def test_unwritable_folder_is_a_clean_error(capsys, tmp_path):
 def test_all_outputs_or_none(capsys, tmp_path, monkeypatch):
     # the report fails (full disk) after the audio was written: the old audio stays, no
     # temporary is left
-    from synth.cli import render as cli_render
+    from synth.store import atomic
 
     out = tmp_path / "x.wav"
     out.write_bytes(b"precious")
 
-    def full_disk(path, obj):
+    def full_disk(path, obj, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
-    monkeypatch.setattr(cli_render, "_write_json", full_disk)
+    monkeypatch.setattr(atomic, "write_json_atomically", full_disk)
     code, _, err = run(
         capsys,
         "render",

@@ -11,7 +11,6 @@ resumes as the bank does; the source bank is never touched.
 from __future__ import annotations
 
 import json
-import math
 import statistics
 import time
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ from synth.bank.executors import BankRunError
 from synth.bank.row import encode, integrated_loudness
 from synth.bank.runner import engine_problem
 from synth.bank.spec import BankSpecError
+from synth.bank.spec.model import spec_number
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
 TARGETS = {"true_peak": -1.0, "loudness": -23.0}
@@ -117,8 +117,7 @@ def _check_target(target: str, level) -> float:
     if target not in TARGETS:
         raise BankSpecError(f"target={target!r} must be one of {', '.join(map(repr, TARGETS))}")
     level = TARGETS[target] if level is None else level
-    if isinstance(level, bool) or not isinstance(level, (int, float)) or not math.isfinite(level):
-        raise BankSpecError(f"level={level!r} must be a finite number (dBTP or LUFS)")
+    spec_number("level", level, "must be a finite number (dBTP or LUFS)")
     if target == "true_peak" and level > 0.0:
         raise BankSpecError(f"level={level!r} must be <= 0 dBTP for target='true_peak'")
     if target == "loudness" and not level < 0.0:
@@ -139,18 +138,6 @@ def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
             f"changed since: {bad[:10]}): run the bank to the end first"
         )
     return spec, rows
-
-
-def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> tuple[bytes, dict]:
-    """``source`` scaled by ``gain_db`` and encoded again (:func:`synth.bank.row.encode`), and
-    its samples' loudness, measured before quantization as a render's manifest measures it."""
-    import soundfile
-
-    audio, samplerate = soundfile.read(source, dtype="float64")
-    audio = audio * 10.0 ** (gain_db / 20.0)
-    advice = f"the gain of {gain_db:+.2f} dB is too high: choose a lower level"
-    data = encode(audio, samplerate, spec["format"], spec["subtype"], name, advice)
-    return data, {"loudness_lufs": integrated_loudness(audio, samplerate)}
 
 
 def _compared(record: dict) -> dict:
@@ -196,12 +183,19 @@ def _check_scaled_before(out: Path, record: dict) -> None:
 
 
 def _scale_row(src: Path, out: Path, row: dict, spec: dict, gain_db: float) -> dict:
-    """Scale ``row``'s file into ``out`` by ``gain_db`` (dB), written once; its new row: peaks
-    moved by the gain (they scale exactly), loudness measured (it does not)."""
+    """Scale ``row``'s file into ``out`` by ``gain_db`` (dB), encoded again
+    (:func:`synth.bank.row.encode`) and written once; its new row: peaks moved by the gain
+    (they scale exactly), loudness measured before quantization as a render's row is."""
+    import soundfile
+
     target = out / row["file"]
     target.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
     target.unlink(missing_ok=True)  # stale: not recorded with its hash
-    data, loudness = _scale_file(src / row["file"], spec, gain_db, row["file"])
+    audio, samplerate = soundfile.read(src / row["file"], dtype="float64")
+    audio = audio * 10.0 ** (gain_db / 20.0)
+    advice = f"the gain of {gain_db:+.2f} dB is too high: choose a lower level"
+    data = encode(audio, samplerate, spec["format"], spec["subtype"], row["file"], advice)
+    loudness = {"loudness_lufs": integrated_loudness(audio, samplerate)}
     if not mf.write_once(target, data):
         data = target.read_bytes()
     peaks = {

@@ -9,6 +9,7 @@ are rewritten atomically from the rows that hold (a cut line's sound is redone).
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
@@ -258,10 +259,8 @@ class Manifest:
 
     def close(self) -> None:
         for fh in self._files or ():
-            try:
+            with contextlib.suppress(OSError):
                 fh.close()
-            except OSError:
-                pass
         self._files = None
 
 

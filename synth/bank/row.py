@@ -81,14 +81,15 @@ def render_scene(spec: BankSpec, item: PlanItem):
     from synth.sound.render import render
     from synth.stimuli.sequences import scaled_sequence
 
-    scene, section = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
+    data = bank_spec.scene_data(spec, item.values)
+    scene, section = scene_from_dict(data, f"row {item.index}")
     subtype = str(section.pop("subtype", spec.subtype)).upper()
     options = RenderOptions(**section)
     k = item.values.get(RESTITUTION_SCALE)
     sequence = None if k is None else scaled_sequence(scene, k, **options.bounces())
     rendered = render(scene, options=options, sequence=sequence)
     audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
-    data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
+    encoded = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     first = rendered.impacts[0] if len(rendered.impacts) else None
     contact = None if first is None else first.result
@@ -106,9 +107,9 @@ def render_scene(spec: BankSpec, item: PlanItem):
         "true_peak_dbtp": _true_peak_db(audio),
         "loudness_lufs": integrated_loudness(audio, rendered.samplerate),
         "spectral_centroid": _spectral_centroid(audio, rendered.samplerate),
-        "scene": bank_spec.scene_data(spec, item.values),
+        "scene": data,
     }
-    return rendered, data, figures
+    return rendered, encoded, figures
 
 
 #: Level below the peak that ends a sound's ``audible_duration``, dB.

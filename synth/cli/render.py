@@ -170,7 +170,7 @@ def _cmd_render(args):
     from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
-    from synth.store.atomic import Outputs
+    from synth.store.atomic import Outputs, write_json_atomically
 
     outputs = Outputs(  # every output path checked before any work
         {"output": args.output, "report": args.report, "plot": args.plot},
@@ -184,7 +184,8 @@ def _cmd_render(args):
             outputs.staged("output"), rendered.audio, rendered.samplerate, subtype=subtype
         )
         if args.report:
-            _write_json(outputs.staged("report"), _report(rendered, data, args.preset))
+            report = _report(rendered, data, args.preset)
+            write_json_atomically(outputs.staged("report"), report, error=SynthError)
         if args.plot:
             from synth.io.plot import plot_render
 
@@ -198,17 +199,6 @@ def _cmd_render(args):
     return 0
 
 
-def _write_json(path, obj):
-    from pathlib import Path
-
-    from synth.store.atomic import write_json_atomically
-
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise SynthError(f"report={str(path)!r}: the directory {str(path.parent)!r} does not exist")
-    write_json_atomically(path, obj, error=SynthError)
-
-
 def _cmd_gallery(args):
     from pathlib import Path
 
@@ -216,6 +206,7 @@ def _cmd_gallery(args):
     from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
+    from synth.store.atomic import write_json_atomically
 
     out = Path(args.output_dir)
     if not out.is_dir():
@@ -228,7 +219,7 @@ def _cmd_gallery(args):
             out / f"{name}.wav", rendered.audio, rendered.samplerate, subtype=subtype
         )
         plot_render(rendered, out / f"{name}.png")
-        _write_json(out / f"{name}.json", _report(rendered, data, name))
+        write_json_atomically(out / f"{name}.json", _report(rendered, data, name), error=SynthError)
         print(
             f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, "
             f"{len(rendered.impacts)} impacts"

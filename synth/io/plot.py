@@ -69,10 +69,10 @@ def _onsets(onsets, n_impacts: int) -> np.ndarray:
         t = np.asarray(onsets, dtype=float).reshape(-1)
     except (TypeError, ValueError):
         raise ParameterError("render.onsets must be an array of times (s)") from None
-    if t.size != n_impacts:
-        raise ParameterError(f"render.onsets has {t.size} times for {n_impacts} impacts")
-    if not np.all(np.isfinite(t)):
-        raise ParameterError("render.onsets: every onset must be finite (s)")
+    if t.size != n_impacts or not np.all(np.isfinite(t)):
+        raise ParameterError(
+            f"render.onsets has {t.size} times for {n_impacts} impacts; each must be finite (s)"
+        )
     return t
 
 
@@ -91,20 +91,6 @@ def _title(settings, samplerate, units, gain, n_impacts, frames, channels) -> st
         f"{frames / samplerate:.4g} s, {_count(channels, 'channel')}, gain {gain:.4g} full "
         f"scale per {units}"
     )
-
-
-def _draw_waveform(ax, t, x, labels):
-    """Each channel as a line, or as its min/max envelope when too long to see."""
-    frames = x.shape[0]
-    starts = np.linspace(0, frames, ENVELOPE_BINS + 1).astype(int)[:-1]
-    for c in range(x.shape[1]):
-        if frames > ENVELOPE_THRESHOLD:
-            lo, hi = np.minimum.reduceat(x[:, c], starts), np.maximum.reduceat(x[:, c], starts)
-            ax.fill_between(
-                t[starts], lo, hi, step="post", linewidth=0.3, alpha=0.8, label=labels[c]
-            )
-        else:
-            ax.plot(t, x[:, c], linewidth=0.6, label=labels[c])
 
 
 def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MAX_PULSES) -> Path:
@@ -156,11 +142,18 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
 
 def _waveform_panel(ax_w, t, x, times, sr, gain, units) -> None:
     """Panel (a): the waveform ``x`` (frames x channels, physical units) against ``t`` (s),
-    a red line at each impact time (s), the full scale (``gain`` per unit) on the right."""
+    a red line at each impact time (s), the full scale (``gain`` per unit) on the right; a
+    channel too long to see is drawn as its min/max envelope."""
     frames, channels = x.shape
     quantity, unit_label = _QUANTITY[units]
-    labels = [f"channel {c + 1}" for c in range(channels)]
-    _draw_waveform(ax_w, t, x, labels)
+    starts = np.linspace(0, frames, ENVELOPE_BINS + 1).astype(int)[:-1]
+    for c in range(channels):
+        if frames > ENVELOPE_THRESHOLD:
+            lo, hi = np.minimum.reduceat(x[:, c], starts), np.maximum.reduceat(x[:, c], starts)
+            band = dict(step="post", linewidth=0.3, alpha=0.8)
+            ax_w.fill_between(t[starts], lo, hi, label=f"channel {c + 1}", **band)
+        else:
+            ax_w.plot(t, x[:, c], linewidth=0.6, label=f"channel {c + 1}")
     for ti in times:
         ax_w.axvline(ti, color="tab:red", linewidth=0.6, alpha=0.5)
     ax_w.set_xlim(0.0, frames / sr)

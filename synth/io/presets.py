@@ -98,16 +98,16 @@ def find_file(name_or_path, known: dict[str, Path], what: str, error=PresetError
         )
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        if p.is_dir():
-            raise error(f"{what} file {str(p)!r} is a directory, not a {what} file")
-        if p.exists() and not p.is_file():
-            raise error(
-                f"{what} file {str(p)!r} is not a regular file (a device or a pipe); "
-                f"give a .toml {what} file"
-            )
-        if not p.is_file():
-            raise error(f"{what} file {str(p)!r} does not exist")
-        return p
+        if p.is_file():
+            return p
+        why = (
+            f"is a directory, not a {what} file"
+            if p.is_dir()
+            else f"is not a regular file (a device or a pipe); give a .toml {what} file"
+            if p.exists()
+            else "does not exist"
+        )
+        raise error(f"{what} file {str(p)!r} {why}")
     if str(name_or_path) in known:
         return known[str(name_or_path)]
     hint = checks.did_you_mean(name_or_path, known, n=3, cutoff=0.4)
@@ -131,31 +131,24 @@ def read(path, error=PresetError) -> dict:
         raise error(f"{path}: cannot be read: {exc.strerror}") from None
 
 
-def _override_list(overrides) -> list[str]:
-    """``overrides`` checked to be a list of ``key=value`` strings (not one string)."""
+def apply_overrides(data: dict, overrides, source="--set") -> dict:
+    """Apply ``key=value`` overrides (dotted keys, TOML values) to a preset dict."""
     overrides = [] if overrides is None else overrides
     if isinstance(overrides, (str, bytes)) or not isinstance(overrides, (list, tuple)):
         raise PresetError(
             f"overrides={overrides!r} must be a list of 'section.key=value' strings "
             f"(e.g. ['ball.radius=0.007']), not {type(overrides).__name__}"
         )
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     for i, item in enumerate(overrides):
         if not isinstance(item, str):
             raise PresetError(
                 f"overrides[{i}]={item!r} must be a 'section.key=value' string, "
                 f"not {type(item).__name__}"
             )
-    return list(overrides)
-
-
-def apply_overrides(data: dict, overrides, source="--set") -> dict:
-    """Apply ``key=value`` overrides (dotted keys, TOML values) to a preset dict."""
-    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
-    for item in _override_list(overrides):
         if "=" not in item:
             raise PresetError(f"{source} {item!r}: expected key=value, e.g. ball.radius=0.007")
         key, text = item.split("=", 1)
-        key = key.strip()
         if any(c in item for c in "\r\n"):
             raise PresetError(f"{source} {item!r}: one key=value per option (no line breaks)")
         try:
@@ -166,7 +159,7 @@ def apply_overrides(data: dict, overrides, source="--set") -> dict:
             raise PresetError(
                 f"{source} {item!r}: the value must be one TOML value, e.g. ball.radius=0.007"
             )
-        set_key(data, key, parsed["v"], source)
+        set_key(data, key.strip(), parsed["v"], source)
     return data
 
 
@@ -191,12 +184,7 @@ def _material(value, where):
         return value
     if not isinstance(value, dict):
         raise PresetError(f"{where}={value!r} must be a material name or an inline table")
-    for k in value:
-        if k not in _MATERIAL_KEYS:
-            raise PresetError(
-                f"{where}.{k}={value[k]!r} is not a known key "
-                f"(allowed: {', '.join(_MATERIAL_KEYS)})"
-            )
+    _check_keys(where, value, _MATERIAL_KEYS)
     kw = dict(value)
     kw.setdefault("name", "custom")
     if not isinstance(kw["name"], str) or not kw["name"].strip():
@@ -271,36 +259,62 @@ def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
 
 def _scene_from_dict(data, source):
     _check_sections(data, source)
-    ball, plate = _bodies(data, source)
-    height, position, velocity = _drop(data["drop"], source)
+    b, p = dict(data["ball"]), dict(data["plate"])
+    if "material" not in b or "material" not in p:
+        raise PresetError(f"{source}: ball.material and plate.material are required")
+    kind = b.pop("kind", "solid")
+    if kind not in BALL_KINDS:
+        raise PresetError(
+            f"{source}: ball.kind={kind!r} must be one of {', '.join(map(repr, BALL_KINDS))}"
+        )
+    for key in b if kind == "solid" else ():
+        if key not in checks.names(Ball):  # a key of HollowBall only
+            raise PresetError(f"{source}: ball.{key}={b[key]!r} applies to ball.kind='hollow' only")
+    for section, kw, cls in (("ball", b, Ball), ("plate", p, Plate)):
+        _require(kw, cls, section)
+        kw["material"] = _material(kw["material"], f"{section}.material")
+        for k, v in kw.items():
+            if k not in ("material", "boundary", "mass") and not isinstance(v, (int, float)):
+                raise PresetError(f"{source}: {section}.{k}={v!r} must be a number")
+    drop = data["drop"]
+    if "height" not in drop:
+        raise PresetError(f"{source}: drop.height is required (metres)")
+    for key, shape in (("position", "[x, y] in metres"), ("velocity", "[vx, vy] in m/s")):
+        if drop.get(key) is not None and not isinstance(drop[key], list):
+            raise PresetError(f"{source}: drop.{key}={drop[key]!r} must be {shape}")
+    # "shell" is a hollow ball's only contact law
+    shell = {"law": "shell"} if kind == "hollow" and "law" not in data.get("contact", {}) else {}
     rolling = None
     if "rolling" in data:
         _require(data["rolling"], Rolling, "rolling")
         rolling = Rolling(**data["rolling"])
-    listener = _listener(data["listener"], source) if "listener" in data else None
-    contact = Contact(**_contact_section(data)) if "contact" in data else None
     description = data.get("description", "")
     if not isinstance(description, str):
         raise PresetError(f"{source}: description={description!r} must be a string")
     scene = Scene(
-        ball,
-        plate,
-        drop_height=height,
-        position=position,
-        listener=listener,
+        BALL_KINDS[kind](**b),
+        Plate(**p),
+        drop_height=drop["height"],
+        position=_vector(drop.get("position")),
+        listener=_listener(data["listener"], source) if "listener" in data else None,
         gravity=data.get("gravity", GRAVITY),
-        contact=contact,
-        velocity=velocity,
+        contact=Contact(**shell, **data["contact"]) if "contact" in data else None,
+        velocity=_vector(drop.get("velocity")),
         rolling=rolling,
     )
     return scene, _render_section(data.get("render", {}), source)
 
 
-def _check_keys(section: str, table: dict, allowed, source: str) -> None:
+def _vector(value):
+    return None if value is None else tuple(value)
+
+
+def _check_keys(where: str, table: dict, allowed) -> None:
+    """Refuse a key of ``table`` (at ``where``: file and section) not in ``allowed``."""
     for k in table:
         if k not in allowed:
             raise PresetError(
-                f"{source}: {section}.{k}={table[k]!r} is not a known key"
+                f"{where}.{k}={table[k]!r} is not a known key"
                 f"{checks.did_you_mean(k, allowed)}; "
                 f"allowed: {', '.join(allowed)}"
             )
@@ -313,7 +327,7 @@ def _check_sections(data: dict, source: str) -> None:
             if not isinstance(value, dict):
                 raise PresetError(f"{source}: [{key}] must be a table, got {value!r}")
             if SECTIONS[key] is not None:
-                _check_keys(key, value, SECTIONS[key], source)
+                _check_keys(f"{source}: {key}", value, SECTIONS[key])
         elif key not in TOP_LEVEL:
             raise PresetError(
                 f"{source}: {key}={value!r} is not a known key; sections: "
@@ -324,84 +338,27 @@ def _check_sections(data: dict, source: str) -> None:
             raise PresetError(f"{source}: the [{required}] section is missing")
 
 
-def _bodies(data: dict, source: str):
-    b = dict(data["ball"])
-    p = dict(data["plate"])
-    if "material" not in b or "material" not in p:
-        raise PresetError(f"{source}: ball.material and plate.material are required")
-    ball_class = _ball_class(b, source)
-    _require(b, Ball, "ball")
-    _require(p, Plate, "plate")
-    b["material"] = _material(b["material"], "ball.material")
-    p["material"] = _material(p["material"], "plate.material")
-    for sec, kw in (("ball", b), ("plate", p)):
-        for k, v in kw.items():
-            if k not in ("material", "boundary", "mass") and not isinstance(v, (int, float)):
-                raise PresetError(f"{source}: {sec}.{k}={v!r} must be a number")
-    return ball_class(**b), Plate(**p)
-
-
-def _drop(drop: dict, source: str):
-    """``(height, position, velocity)`` of ``[drop]``: m, m from a corner, m/s."""
-    if "height" not in drop:
-        raise PresetError(f"{source}: drop.height is required (metres)")
-    vectors = []
-    for key, shape in (("position", "[x, y] in metres"), ("velocity", "[vx, vy] in m/s")):
-        value = drop.get(key)
-        if value is not None and not isinstance(value, list):
-            raise PresetError(f"{source}: drop.{key}={value!r} must be {shape}")
-        vectors.append(None if value is None else tuple(value))
-    return drop["height"], *vectors
-
-
 def _listener(section: dict, source: str):
     kind = section.get("type", DEFAULT_LISTENER)
     if kind not in ("microphone", "accelerometer"):
         raise PresetError(
             f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'"
         )
-    if "position" not in section:
-        raise PresetError(f"{source}: listener.position is required")
-    lp = section["position"]
+    lp = section.get("position")
     if not isinstance(lp, list):
         raise PresetError(f"{source}: listener.position={lp!r} must be a list of numbers (metres)")
     return Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
-
-
-def _ball_class(section: dict, source: str):
-    """The ball's class named by ``section["kind"]`` (popped); a hollow ball's keys are
-    refused on a solid one."""
-    kind = section.pop("kind", "solid")
-    if kind not in BALL_KINDS:
-        raise PresetError(
-            f"{source}: ball.kind={kind!r} must be one of {', '.join(map(repr, BALL_KINDS))}"
-        )
-    if kind == "solid":
-        for key in ("thickness", "pressure", "cover_thickness", "cover_mass"):
-            if key in section:
-                raise PresetError(
-                    f"{source}: ball.{key}={section[key]!r} applies to ball.kind='hollow' only"
-                )
-    return BALL_KINDS[kind]
 
 
 def _is_hollow(data: dict) -> bool:
     return data.get("ball", {}).get("kind", "solid") == "hollow"
 
 
-def _contact_section(data: dict) -> dict:
-    """The ``[contact]`` section, with "shell" the law of a hollow ball (its only one)."""
-    section = dict(data["contact"])
-    if _is_hollow(data):
-        section.setdefault("law", "shell")
-    return section
-
-
 def _render_section(section: dict, source: str) -> dict:
     """The ``[render]`` section checked: render options and a soundfile ``subtype``."""
     from synth.sound.options import OPTIONS
 
-    _check_keys("render", section, OPTIONS + ("subtype",), source)
+    _check_keys(f"{source}: render", section, OPTIONS + ("subtype",))
     try:
         render_options_of(section)
     except ParameterError as exc:

@@ -150,10 +150,20 @@ def alter_restitution(
     ``ParameterError`` for bad input, onsets that are not one series (a bounce time that
     grows) or an alteration that leaves fewer than 3 ticks.
     """
+    from synth.analysis.settings import audio_array
+
     o = dataclasses.replace(options or AlterOptions(), **overrides)
-    X, fs, k = _checked_arguments(audio, samplerate, restitution_scale)
+    X = audio_array(audio)
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
     t = _checked_onsets(X, fs, onsets, gravity, channel)
-    min_b = _checked_min_bounce(o.min_bounce, t, fs)
+    # the recording's shortest bounce by default (at least 2 sample periods, as the onsets)
+    min_b = float(np.min(np.diff(t)) if o.min_bounce is None else o.min_bounce)
+    if min_b < 2.0 / fs:
+        raise ParameterError(
+            f"min_bounce={o.min_bounce!r} must be at least 2 sample periods "
+            f"({2.0 / fs:.4g} s at {fs:g} Hz)"
+        )
     timing = _Timing.of(t, k, min_b)
     T, T_new = timing.bounces, timing.new_bounces
     M = T_new.size + 1
@@ -179,17 +189,6 @@ def alter_restitution(
     )
 
 
-def _checked_arguments(audio, samplerate, restitution_scale):
-    """The checked audio (float64, ``(frames, channels)``), samplerate (Hz) and ``k`` of
-    :func:`alter_restitution`."""
-    from synth.analysis.settings import audio_array
-
-    X = audio_array(audio)
-    fs = checks.positive("samplerate", samplerate, "Hz")
-    k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
-    return X, fs, k
-
-
 def _checked_onsets(x, fs, onsets, gravity, channel):
     """The tick onsets, s (given, or :func:`synth.analysis.analyze`'s), one series in the audio."""
     if onsets is None:
@@ -206,19 +205,6 @@ def _checked_onsets(x, fs, onsets, gravity, channel):
         )
     _check_one_series(t)
     return t
-
-
-def _checked_min_bounce(min_bounce, t, fs) -> float:
-    """``min_bounce`` checked (s), or the recording's shortest bounce."""
-    if min_bounce is None:
-        return float(np.min(np.diff(t)))
-    min_b = float(min_bounce)  # positive: checked by AlterOptions
-    if min_b < 2.0 / fs:
-        raise ParameterError(
-            f"min_bounce={min_bounce!r} must be at least 2 sample periods "
-            f"({2.0 / fs:.4g} s at {fs:g} Hz)"
-        )
-    return min_b
 
 
 def _layout(fs, t, t_new, T, gain, min_b) -> TickLayout:

@@ -5,6 +5,7 @@ never sees a partial file and a failure leaves the target untouched.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -56,13 +57,10 @@ def remove_stale_temporaries(folder) -> list[Path]:
         return removed
     for tmp in entries:
         pid_text = tmp.name[len(TEMPORARY_PREFIX) :].split("-", 1)[0]
-        if not pid_text.isdigit() or _process_alive(int(pid_text)):
-            continue
-        try:
-            tmp.unlink()
-            removed.append(tmp)
-        except OSError:
-            pass
+        if pid_text.isdigit() and not _process_alive(int(pid_text)):
+            with contextlib.suppress(OSError):  # removed meanwhile, or not removable
+                tmp.unlink()
+                removed.append(tmp)
     return removed
 
 
@@ -99,10 +97,7 @@ def temporary_sibling(
         yield tmp
     finally:
         if tmp is not None:
-            try:
-                os.unlink(tmp)
-            except FileNotFoundError:  # renamed onto its target, or never created
-                pass
+            tmp.unlink(missing_ok=True)  # renamed onto its target, or never created
 
 
 def _fsync(path: Path) -> None:

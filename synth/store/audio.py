@@ -19,6 +19,11 @@ from synth import checks
 from synth.errors import ParameterError, SynthError
 from synth.store.atomic import temporary_sibling, write_atomically
 
+try:
+    import resource  # the file size limit (ulimit -f), not on Windows
+except ImportError:
+    resource = None
+
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
 #: (20 log10(1000 / 20e-6) = 154): an impact heard from a few tens of centimetres
@@ -78,8 +83,8 @@ def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = Fal
             free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
             if free < nbytes + 65536:
                 return f"no space left on the device ({free} bytes free, about {nbytes} needed)"
-            limit = _file_size_limit()
-            if limit is not None and nbytes > limit:
+            limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0] if resource else None
+            if limit not in (None, getattr(resource, "RLIM_INFINITY", None)) and nbytes > limit:
                 return (
                     f"the file, about {nbytes} bytes, is larger than this process may write "
                     f"(file size limit {limit} bytes: ulimit -f)"
@@ -87,16 +92,6 @@ def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = Fal
     except OSError as exc:
         return exc.strerror or str(exc)
     return reason
-
-
-def _file_size_limit() -> int | None:
-    """The largest file this process may write (``RLIMIT_FSIZE``, bytes), or None."""
-    try:
-        import resource
-    except ImportError:  # not on Windows
-        return None
-    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
-    return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
 def _peak(a: np.ndarray) -> float:
@@ -249,21 +244,16 @@ def read_audio(
             f"channel={channel!r} must be None (all channels), 'mix' or a channel index"
         )
     p = Path(path)
-    if p.is_dir():
-        raise AudioFileError(f"path={str(p)!r} is a directory, not a file")
-    if not p.exists():
-        raise AudioFileError(f"path={str(p)!r}: no such file")
     if not p.is_file():
-        raise AudioFileError(f"path={str(p)!r} is not a file")
+        why = " is a directory, not a" if p.is_dir() else " is not a" if p.exists() else ": no such"
+        raise AudioFileError(f"path={str(p)!r}{why} file")
     try:
         audio, sr = soundfile.read(p, dtype="float64", always_2d=True)
     except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
-        reason = _system_reason(p, getattr(exc, "error_string", None) or str(exc), reading=True)
-        if reason != (getattr(exc, "error_string", None) or str(exc)):
-            raise AudioFileError(f"cannot read {str(p)!r}: {reason}") from exc
-        raise AudioFileError(
-            f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}"
-        ) from exc
+        said = getattr(exc, "error_string", None) or str(exc)
+        reason = _system_reason(p, said, reading=True)
+        what = " as audio (corrupt or unsupported format)" if reason == said else ""
+        raise AudioFileError(f"cannot read {str(p)!r}{what}: {reason}") from exc
     short = wav_shortfall(p)
     if short is not None:
         warnings.warn(short, TruncatedAudioWarning, stacklevel=2)

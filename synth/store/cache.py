@@ -9,6 +9,7 @@ with the SHA-256 of their arrays (a damaged file is recomputed), their total bou
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -134,11 +135,8 @@ class CacheEntryError(ValueError):
 
 
 class VerifiedArrays(dict):
-    """The arrays of a cache entry whose digest matched, usable as numpy's ``NpzFile``."""
-
-    @property
-    def files(self) -> list[str]:
-        return list(self)
+    """The arrays of a cache entry whose digest matched, opened in ``with`` as numpy's
+    ``NpzFile`` is."""
 
     def __enter__(self):
         return self
@@ -156,10 +154,8 @@ def load_npz(path: Path) -> VerifiedArrays:
     stored = arrays.pop(DIGEST_ARRAY, None)
     if stored is None or str(stored[()]) != arrays_digest(arrays):
         raise CacheEntryError(f"{path}: the arrays do not match the stored digest")
-    try:
+    with contextlib.suppress(OSError):  # evicted meanwhile or read-only: the arrays are good
         os.utime(path)
-    except OSError:  # evicted meanwhile or read-only: the arrays read are still good
-        pass
     return VerifiedArrays(arrays)
 
 
@@ -200,8 +196,9 @@ def _evict(limit: int, *, keep: Path | None = None) -> int:
             return 0
         now = time.time()
         for p in filter(_is_temporary, directory.iterdir()):
-            if now - _mtime(p) > STALE_TEMPORARY_AGE:
-                _unlink(p)
+            with contextlib.suppress(OSError):  # removed meanwhile by another process
+                if now - p.stat().st_mtime > STALE_TEMPORARY_AGE:
+                    p.unlink()
         entries = sorted(_entries(directory), key=lambda e: (e.path == keep, e.used))
     except (OSError, RuntimeError):
         return 0
@@ -209,25 +206,10 @@ def _evict(limit: int, *, keep: Path | None = None) -> int:
     for e in entries:
         if total <= limit:
             break
-        _unlink(e.path)
+        with contextlib.suppress(OSError):  # gone meanwhile (another process) or not removable
+            e.path.unlink()
         total -= e.size
     return total
-
-
-def _mtime(p: Path) -> float:
-    """``p``'s modification time, s (inf if another process removed it meanwhile)."""
-    try:
-        return p.stat().st_mtime
-    except FileNotFoundError:
-        return math.inf
-
-
-def _unlink(p: Path) -> bool:
-    try:
-        p.unlink()
-        return True
-    except OSError:  # already gone (another process) or not removable
-        return False
 
 
 @dataclass(frozen=True)
@@ -261,11 +243,9 @@ def clear_disk() -> tuple[int, int]:
         return 0, 0
     n = freed = 0
     for p in [p for p in directory.iterdir() if p.suffix in (".npz", ".tmp")]:
-        try:
+        with contextlib.suppress(OSError):  # gone meanwhile (another process) or not removable
             size = p.stat().st_size
-        except FileNotFoundError:
-            continue
-        if _unlink(p):
+            p.unlink()
             n, freed = n + 1, freed + size
     return n, freed
 

@@ -54,10 +54,8 @@ def set_ogg_serial(data: bytes, serial: int) -> bytes:
             raise ValueError(f"not an Ogg page at byte {pos}")
         n_segments = out[pos + 26]
         table_end = pos + 27 + n_segments
-        if table_end > len(out):
-            raise ValueError(f"Ogg page at byte {pos} is cut")
         end = table_end + sum(out[pos + 27 : table_end])
-        if end > len(out):
+        if table_end > len(out) or end > len(out):
             raise ValueError(f"Ogg page at byte {pos} is cut")
         struct.pack_into("<I", out, pos + 14, serial)
         struct.pack_into("<I", out, pos + 22, 0)

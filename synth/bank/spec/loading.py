@@ -57,6 +57,8 @@ def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
 
 
 def _from_dict(data: dict, base_dir: Path) -> BankSpec:
+    import soundfile
+
     for key, value in data.items():
         if key not in TOP_LEVEL:
             hint = checks.did_you_mean(key, TOP_LEVEL)
@@ -81,7 +83,11 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     axes = _axes(data.get("vary", {}), sampling, count, base_raw)
     base, options = _base(base_raw, data.get("render", {}), preset_path)
     subtype = options.pop("subtype", FORMATS[fmt][2]).upper()
-    _check_subtype(fmt, subtype)
+    if not soundfile.check_format(FORMATS[fmt][1], subtype):
+        allowed = ", ".join(soundfile.available_subtypes(FORMATS[fmt][1]))
+        raise spec_error(
+            "render.subtype", subtype, f"is not a subtype of format={fmt!r}; allowed: {allowed}"
+        )
     name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
     if not isinstance(name, str) or not name:
         raise spec_error(
@@ -195,18 +201,6 @@ def _preset(value, base_dir: Path) -> tuple[Path, str]:
     return path, path.stem
 
 
-def _check_subtype(fmt: str, subtype: str) -> None:
-    import soundfile
-
-    if not soundfile.check_format(FORMATS[fmt][1], subtype):
-        raise spec_error(
-            "render.subtype",
-            subtype,
-            f"is not a subtype of format={fmt!r}; allowed: "
-            f"{', '.join(soundfile.available_subtypes(FORMATS[fmt][1]))}",
-        )
-
-
 def _allowed_keys() -> list[str]:
     from synth.sound.options import OPTIONS
 
@@ -251,9 +245,7 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
     if not isinstance(log, bool):
         raise spec_error(f"{where}.log", log, "must be true or false")
     lo, hi = _bound(f"{where}.min", value["min"]), _bound(f"{where}.max", value["max"])
-    if isinstance(lo, tuple) != isinstance(hi, tuple) or (
-        isinstance(lo, tuple) and len(lo) != len(hi)
-    ):
+    if np.shape(lo) != np.shape(hi):
         raise spec_error(
             where, value, "needs min and max of one shape (two numbers, or two lists of one length)"
         )

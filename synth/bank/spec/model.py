@@ -141,10 +141,9 @@ class BankSpec:
         for a in self.axes:
             if isinstance(a, ListAxis):
                 axes[a.key] = list(a.values)
-            else:
+            else:  # vectors as tuples: JSON lists once stored (:func:`canonical`)
                 steps = {} if a.steps is None else {"steps": a.steps}
-                axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
-                axes[a.key].update(steps)
+                axes[a.key] = {"min": a.low, "max": a.high, "log": a.log} | steps
         return {
             "preset": self.preset_name,
             "preset_data": self.base,
@@ -199,10 +198,6 @@ def compared_form(data: dict) -> dict:
     """The part of a stored spec that makes the sounds: :func:`canonical` without
     :data:`NOT_AUDIO` and :data:`ENGINE`."""
     return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO + (ENGINE,)}
-
-
-def _jsonable(v):
-    return list(v) if isinstance(v, tuple) else v
 
 
 def spec_error(key: str, value, allowed: str) -> BankSpecError:

@@ -53,12 +53,8 @@ def row_labels(spec: BankSpec, values: dict) -> dict | None:
     for the keys whose table labels the row's value; None if the spec has none."""
     if not spec.labels:
         return None
-    out = {}
-    for key, table in spec.labels.items():
-        label = _label_of(table, values.get(key))
-        if label is not None:
-            out[key] = label
-    return out
+    labels = {key: _label_of(table, values.get(key)) for key, table in spec.labels.items()}
+    return {key: label for key, label in labels.items() if label is not None}
 
 
 def _mapping(spec: BankSpec, index: int, values: dict) -> dict:

@@ -5,10 +5,9 @@ the render's cost budget, and the row lists of ``--redo``.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
-from synth import cost
+from synth import checks, cost
 from synth.bank.spec.model import MAX_ROWS, RESTITUTION_SCALE, BankSpec, BankSpecError, spec_error
 from synth.bank.spec.naming import file_name
 from synth.bank.spec.sampling import row_count, variations, warn_repeated_rows
@@ -62,13 +61,10 @@ def row_problem(spec: BankSpec, item: PlanItem, budget: cost.Budget | None = Non
     """Why row ``item``'s scene cannot be rendered (None if it can): checked as a render
     checks it, its cost estimate held to ``budget`` (solving only the first contact by
     the impedance model: milliseconds)."""
-    k = item.values.get(RESTITUTION_SCALE)
-    if k is not None and (
-        isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
-    ):
-        return f"{RESTITUTION_SCALE}={k!r} must be a finite number >= 0 (dimensionless)"
     budget = cost.Budget.from_environment() if budget is None else budget
     try:
+        if RESTITUTION_SCALE in item.values:
+            checks.nonnegative(RESTITUTION_SCALE, item.values[RESTITUTION_SCALE], "dimensionless")
         scene, options = presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
         cost.estimate_render(scene, options, budget).check(budget)
     except ParameterError as exc:
