@@ -40,6 +40,16 @@ def check_plot_path(path) -> str:
     return fmt
 
 
+#: The two panels of two fields per tick on twin axes: title, then ``(field, scale, label,
+#: colour)`` of each axis.
+_TWIN_PANELS = (
+    ("bounce time and restitution", ("bounce_time", 1e3, "bounce time (ms)", "tab:blue"),
+     ("restitution", 1.0, "restitution e", "tab:orange")),
+    ("centroid and decay time", ("centroid", 1.0, "centroid (Hz)", "tab:purple"),
+     ("decay_time", 1e3, "decay time (ms)", "tab:brown")),
+)  # fmt: skip
+
+
 def plot_analysis(analysis, audio, samplerate, path):
     """Draw the analysis to an image file (format from the suffix), written whole or not at all
     (:func:`synth.store.atomic.write_atomically`); returns the matplotlib Figure. Four panels:
@@ -57,17 +67,28 @@ def plot_analysis(analysis, audio, samplerate, path):
 
     fig = Figure(figsize=(11, 8), layout="constrained")
     FigureCanvasAgg(fig)
-    ax = fig.subplots(2, 2)
-    _signal_panel(ax[0, 0], an, x)
-    bounce = ("bounce_time", 1e3, "bounce time (ms)", "tab:blue")
-    restitution = ("restitution", 1.0, "restitution e", "tab:orange")
-    _twin_panel(ax[0, 1], an, bounce, restitution, "bounce time and restitution")
-    _energy_panel(ax[1, 0], an)
-    centroid = ("centroid", 1.0, "centroid (Hz)", "tab:purple")
-    decay = ("decay_time", 1e3, "decay time (ms)", "tab:brown")
-    _twin_panel(ax[1, 1], an, centroid, decay, "centroid and decay time")
-    for a_ in (ax[0, 1], ax[1, 0], ax[1, 1]):
-        a_.xaxis.set_major_locator(MaxNLocator(integer=True))
+    (signal, bounces), (energies, spectra) = fig.subplots(2, 2)
+    signal.plot(np.arange(x.size) / an.samplerate, x, lw=0.5, color="0.3")
+    for tk in an.ticks:
+        signal.axvline(tk.time, color="tab:red", lw=0.6, alpha=0.7)
+    signal.set(xlabel="time (s)", ylabel="signal", title=f"{len(an.ticks)} ticks detected")
+    n = np.array([tk.index for tk in an.ticks])
+    for ax, (title, left, right) in zip((bounces, spectra), _TWIN_PANELS):
+        ax.plot(n, _column(an, left[0], left[1]), "o-", color=left[3], ms=3)
+        ax.set(xlabel="tick", ylabel=left[2], title=title)
+        twin = ax.twinx()
+        twin.plot(n, _column(an, right[0], right[1]), "s-", color=right[3], ms=3)
+        twin.set_ylabel(right[2], color=right[3])
+    energy = _column(an, "energy")
+    energies.semilogy(n, energy, "o", color="tab:green", ms=4, label="tick energy")
+    e = an.mean_restitution
+    if e is not None and energy.size:
+        label = f"slope e^2, e = {e:.3f}"
+        energies.semilogy(n, energy[0] * (e * e) ** (n - 1.0), "--", color="0.4", label=label)
+    energies.set(xlabel="tick", ylabel="energy (signal units^2 s)", title="energy per tick")
+    energies.legend(loc="upper right")
+    for ax in (bounces, energies, spectra):
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     write_atomically(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=110), error=ParameterError)
     return fig
 
@@ -77,6 +98,7 @@ def _analysed_signal(an: Analysis, audio, samplerate) -> np.ndarray:
     and length."""
     chans = audio_array(audio)
     fs = checks.positive("samplerate", samplerate, "Hz")
+    frames = int(round(an.duration * fs))
     if fs != an.samplerate:
         raise ParameterError(
             f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz"
@@ -86,50 +108,12 @@ def _analysed_signal(an: Analysis, audio, samplerate) -> np.ndarray:
             f"audio has {chans.shape[1]} channel(s) but the analysis used channel {an.channel}"
             f" (pass the recording with all its channels)"
         )
-    if chans.shape[0] != int(round(an.duration * fs)):
-        raise ParameterError(
-            f"audio has {chans.shape[0]} frames but the analysis was of "
-            f"{int(round(an.duration * fs))}"
-        )
+    if chans.shape[0] != frames:
+        raise ParameterError(f"audio has {chans.shape[0]} frames but the analysis was of {frames}")
     return chans.mean(axis=1) if an.channel is None else chans[:, an.channel]
 
 
 def _column(an: Analysis, name: str, scale: float = 1.0) -> np.ndarray:
     """One field of every tick, NaN where undefined."""
-    return np.array(
-        [np.nan if getattr(tk, name) is None else getattr(tk, name) * scale for tk in an.ticks]
-    )
-
-
-def _numbers(an: Analysis) -> np.ndarray:
-    return np.array([tk.index for tk in an.ticks])
-
-
-def _signal_panel(ax, an: Analysis, x: np.ndarray) -> None:
-    ax.plot(np.arange(x.size) / an.samplerate, x, lw=0.5, color="0.3")
-    for tk in an.ticks:
-        ax.axvline(tk.time, color="tab:red", lw=0.6, alpha=0.7)
-    ax.set(xlabel="time (s)", ylabel="signal", title=f"{len(an.ticks)} ticks detected")
-
-
-def _twin_panel(ax, an: Analysis, left: tuple, right: tuple, title: str) -> None:
-    """Two fields per tick, ``(field, scale, label, colour)`` each, on twin axes."""
-    n = _numbers(an)
-    ax.plot(n, _column(an, left[0], left[1]), "o-", color=left[3], ms=3)
-    ax.set(xlabel="tick", ylabel=left[2], title=title)
-    twin = ax.twinx()
-    twin.plot(n, _column(an, right[0], right[1]), "s-", color=right[3], ms=3)
-    twin.set_ylabel(right[2], color=right[3])
-
-
-def _energy_panel(ax, an: Analysis) -> None:
-    n = _numbers(an)
-    energy = _column(an, "energy")
-    ax.semilogy(n, energy, "o", color="tab:green", ms=4, label="tick energy")
-    e = an.mean_restitution
-    if e is not None and energy.size:
-        ax.semilogy(
-            n, energy[0] * (e * e) ** (n - 1.0), "--", color="0.4", label=f"slope e^2, e = {e:.3f}"
-        )
-    ax.set(xlabel="tick", ylabel="energy (signal units^2 s)", title="energy per tick")
-    ax.legend(loc="upper right")
+    values = (getattr(tk, name) for tk in an.ticks)
+    return np.array([np.nan if v is None else v * scale for v in values])

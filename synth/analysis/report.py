@@ -92,21 +92,28 @@ def checked_analysis(name: str, value) -> Analysis:
     return value
 
 
-#: Columns of :func:`format_table` and :func:`to_csv`: (field, heading, unit, scale, format).
+#: Columns of :func:`format_table`: (field, heading, scale, format).
 _COLUMNS = (
-    ("index", "n", "", 1.0, "d"),
-    ("time", "time", "s", 1.0, ".5f"),
-    ("bounce_time", "bounce", "ms", 1e3, ".3f"),
-    ("restitution", "e", "", 1.0, ".4f"),
-    ("speed", "speed", "m/s", 1.0, ".4f"),
-    ("energy", "energy", "u^2 s", 1.0, ".4g"),
-    ("peak", "peak", "u", 1.0, ".4g"),
-    ("centroid", "centroid", "Hz", 1.0, ".0f"),
-    ("spread", "spread", "Hz", 1.0, ".0f"),
-    ("decay_time", "decay", "ms", 1e3, ".2f"),
-    ("strength", "strength", "dB", 1.0, ".1f"),
-    ("flags", "flags", "", 1.0, "s"),
+    ("index", "n", 1.0, "d"),
+    ("time", "time (s)", 1.0, ".5f"),
+    ("bounce_time", "bounce (ms)", 1e3, ".3f"),
+    ("restitution", "e", 1.0, ".4f"),
+    ("speed", "speed (m/s)", 1.0, ".4f"),
+    ("energy", "energy (u^2 s)", 1.0, ".4g"),
+    ("peak", "peak (u)", 1.0, ".4g"),
+    ("centroid", "centroid (Hz)", 1.0, ".0f"),
+    ("spread", "spread (Hz)", 1.0, ".0f"),
+    ("decay_time", "decay (ms)", 1e3, ".2f"),
+    ("strength", "strength (dB)", 1.0, ".1f"),
+    ("flags", "flags", 1.0, "s"),
 )
+
+
+def _text(value, scale: float, fmt: str) -> str:
+    """A table cell: ``-`` where undefined, the flags joined by commas."""
+    if isinstance(value, tuple):
+        value = ",".join(value) or None
+    return "-" if value is None else format(value * scale if scale != 1.0 else value, fmt)
 
 
 def format_table(analysis, *, warnings=True) -> str:
@@ -116,59 +123,44 @@ def format_table(analysis, *, warnings=True) -> str:
     if not isinstance(warnings, (bool, np.bool_)):
         raise ParameterError(f"warnings={warnings!r} must be True or False")
     e = an.mean_restitution
-    summary = (
+    lines = [
         f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
         f"channel {'mix' if an.channel is None else an.channel}, "
         f"noise floor {an.noise_floor:.3g}, mean e "
         f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2"
-    )
-    lines = [summary]
-    if warnings:
-        lines += [f"warning: {w}" for w in an.warnings]
-    head = [h + (f" ({u})" if u else "") for _, h, u, _, _ in _COLUMNS]
-    rows = []
-    for t in an.ticks:
-        row = []
-        for name, _, _, scale, fmt in _COLUMNS:
-            v = getattr(t, name)
-            if name == "flags":
-                v = ",".join(v) or None
-            row.append("-" if v is None else format(v * scale if scale != 1.0 else v, fmt))
-        rows.append(row)
-    widths = [
-        max(len(h), *(len(r[j]) for r in rows)) if rows else len(h) for j, h in enumerate(head)
     ]
-    lines.append("  ".join(h.rjust(w) for h, w in zip(head, widths)))
-    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
+    lines += [f"warning: {w}" for w in an.warnings] if warnings else []
+    table = [[h for _, h, _, _ in _COLUMNS]]
+    table += [[_text(getattr(t, n), sc, f) for n, _, sc, f in _COLUMNS] for t in an.ticks]
+    widths = [max(len(row[j]) for row in table) for j in range(len(_COLUMNS))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in table]
     return "\n".join(lines)
+
+
+#: The units of :func:`to_dict`'s fields.
+_UNITS = dict.fromkeys(("time", "bounce_time", "decay_time", "window", "duration"), "s") | {
+    "speed": "m/s",
+    "energy": "signal units^2 s",
+    "peak": "signal units",
+    "centroid": "Hz",
+    "spread": "Hz",
+    "strength": "dB",
+    "samplerate": "Hz",
+    "noise_floor": "signal units",
+    "gravity": "m/s^2",
+}
 
 
 def to_dict(analysis) -> dict:
     """The analysis as plain JSON-ready data (SI units; ``None`` where undefined)."""
     an = checked_analysis("analysis", analysis)
     out = {f.name: getattr(an, f.name) for f in fields(an) if f.name not in ("ticks", "series")}
-    out["warnings"] = list(an.warnings)
-    out["mean_restitution"] = an.mean_restitution
-    seconds = ("time", "bounce_time", "decay_time", "window", "duration")
-    out["units"] = dict.fromkeys(seconds, "s") | {
-        "speed": "m/s",
-        "energy": "signal units^2 s",
-        "peak": "signal units",
-        "centroid": "Hz",
-        "spread": "Hz",
-        "strength": "dB",
-        "samplerate": "Hz",
-        "noise_floor": "signal units",
-        "gravity": "m/s^2",
-    }
+    out |= {"warnings": list(an.warnings), "mean_restitution": an.mean_restitution}
+    out["units"] = dict(_UNITS)
     out["ticks"] = [asdict(t) | {"flags": list(t.flags)} for t in an.ticks]
     out["series"] = [
-        {
-            "first": s.first,
-            "last": s.last,
-            "ticks": [t.index for t in s.ticks],
-            "mean_restitution": s.mean_restitution,
-        }
+        {"first": s.first, "last": s.last, "ticks": [t.index for t in s.ticks]}
+        | {"mean_restitution": s.mean_restitution}
         for s in an.series
     ]
     return out
@@ -176,21 +168,15 @@ def to_dict(analysis) -> dict:
 
 def to_csv(analysis) -> str:
     """The ticks as CSV: a header of the :class:`Tick` field names, one row each in SI units;
-    undefined values empty, flags joined by ``;``."""
+    undefined values empty, flags joined by ``;``, numbers as their exact ``repr``."""
     an = checked_analysis("analysis", analysis)
     names = [f.name for f in fields(Tick)]
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(names)
     for t in an.ticks:
-        w.writerow([_cell(getattr(t, n)) for n in names])
+        cells = [getattr(t, n) for n in names]
+        w.writerow(
+            ["" if v is None else ";".join(v) if isinstance(v, tuple) else repr(v) for v in cells]
+        )
     return buf.getvalue()
-
-
-def _cell(value) -> str:
-    """A CSV cell: empty for None, the flags joined by ``;``, else the exact ``repr``."""
-    if value is None:
-        return ""
-    if isinstance(value, tuple):
-        return ";".join(value)
-    return repr(value)
