@@ -28,22 +28,16 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
     """The clipped samples of ``chans`` (frames, channels), or None: ``min_count`` samples at an
     extreme in flat tops of :data:`FLAT_TOP` (a mere peak meets it once)."""
     mask = np.zeros(chans.shape, dtype=bool)
-    worst = None
-    for c in range(chans.shape[1]):
-        col = chans[:, c]
+    for c, col in enumerate(chans.T):
         for level in (col.max(), col.min()):
-            if level == 0.0:
-                continue
-            at = col == level
-            if np.count_nonzero(long_runs(at)) >= min_count:
-                mask[:, c] |= at
-        count = int(np.count_nonzero(mask[:, c]))
-        if count and (worst is None or count > worst[1]):
-            worst = (c, count, float(np.abs(col).max()))
-    if worst is None:
+            if level != 0.0 and np.count_nonzero(long_runs(col == level)) >= min_count:
+                mask[:, c] |= col == level
+    counts = np.count_nonzero(mask, axis=0)
+    if not counts.any():
         return None
-    c, count, peak = worst
-    return Clipping(mask, clipping_warning(int(np.count_nonzero(mask)), c, count, peak))
+    c = int(np.argmax(counts))  # the channel clipped most
+    peak = float(np.abs(chans[:, c]).max())
+    return Clipping(mask, clipping_warning(int(counts.sum()), c, int(counts[c]), peak))
 
 
 def clipping_warning(total: int, channel: int, count: int, peak: float) -> str:
