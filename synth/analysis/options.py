@@ -188,10 +188,6 @@ class AnalysisOptions:
         checks.check_names(type(self), changes, "an analysis option")
         return dataclasses.replace(self, **changes)
 
-    def as_dict(self) -> dict:
-        """The options by name, in the order of their fields."""
-        return {name: getattr(self, name) for name in OPTIONS}
-
 
 #: The names of the analysis options, in the order of their fields.
 OPTIONS = checks.names(AnalysisOptions)

@@ -78,8 +78,7 @@ def _cmd_alter(args):
         min_bounce=args.min_bounce,
         normalize=args.normalize,
     )
-    out, t_new = altered.audio, altered.onsets
-    e, e_new = altered.restitution, altered.new_restitution
+    out, kept = altered.audio, len(altered.onsets)
     peak = float(np.max(np.abs(out)))
     subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
     if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:
@@ -89,17 +88,13 @@ def _cmd_alter(args):
             f"(or a .wav file with --subtype FLOAT)"
         )
     audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
-    dropped = len(onsets) - len(t_new)
     shortest = args.min_bounce if args.min_bounce is not None else float(np.min(np.diff(onsets)))
-    end = (
-        f"; the series ends after {len(t_new)} ticks ({dropped} dropped: the next bounce "
-        f"would be shorter than {shortest * 1e3:.3g} ms)"
-        if dropped
-        else ""
-    )
+    end = f"; the series ends after {kept} ticks ({len(onsets) - kept} dropped: the next bounce "
+    end += f"would be shorter than {shortest * 1e3:.3g} ms)"
     print(
-        f"{args.output}: {len(t_new)} ticks re-laid; e {np.mean(e):.3f} -> "
-        f"{np.mean(e_new):.3f} (mean over bounces){end}, {out.shape[0] / fs:.3f} s, "
+        f"{args.output}: {kept} ticks re-laid; e {np.mean(altered.restitution):.3f} -> "
+        f"{np.mean(altered.new_restitution):.3f} (mean over bounces)"
+        f"{end if kept < len(onsets) else ''}, {out.shape[0] / fs:.3f} s, "
         f"normalize={args.normalize}"
     )
     return 0
