@@ -124,10 +124,10 @@ def survey(source: Source, channel: int | None) -> Survey:
         powers.append(np.mean(dsp.noise_frames(mix, source.samplerate) ** 2, axis=1))
     tops = np.zeros((2, n_ch), dtype=int)
     for _, piece in source.pieces():
-        for c, (high, low) in enumerate(zip(highs, lows)):
-            for row, level in enumerate((high, low)):
+        for c, column in enumerate(piece[:, cols].T):
+            for row, level in enumerate((highs[c], lows[c])):
                 if level:
-                    tops[row, c] += np.count_nonzero(long_runs(piece[:, cols][:, c] == level))
+                    tops[row, c] += np.count_nonzero(long_runs(column == level))
     ms = np.concatenate(powers)
     floor = float(np.sqrt(ms[dsp.quiet_frames(ms)].mean())) if ms.size else 0.0
     return Survey(highs, lows, tops[0], tops[1], any_sample, any_mix, floor)

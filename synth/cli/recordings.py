@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 import numpy as np
 
@@ -15,8 +16,6 @@ def _cmd_analyze(args):
 
     if args.plot:
         analysis.check_plot_path(args.plot)  # a bad image path fails before any output
-    import warnings
-
     from synth.store.audio import TruncatedAudioWarning
 
     with warnings.catch_warnings():
@@ -38,18 +37,6 @@ def _cmd_analyze(args):
     return 0
 
 
-def _read_warned(reader, path):
-    """``reader(path)``, its warnings (a truncated file) printed as the command's own."""
-    import warnings
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        out = reader(path)
-    for w in caught:
-        print(f"synth: warning: {w.message}", file=sys.stderr)
-    return out
-
-
 def _analysis_options(args):
     """The analysis options of the command's flags; unset ones keep their defaults."""
     from synth.analysis.options import OPTIONS, from_text
@@ -66,7 +53,11 @@ def _cmd_alter(args):
 
     audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
     options = _analysis_options(args)
-    audio, fs = _read_warned(audio_io.read_audio, args.file)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        audio, fs = audio_io.read_audio(args.file)
+    for w in caught:  # a truncated file's, printed as the command's own
+        print(f"synth: warning: {w.message}", file=sys.stderr)
     onsets = [t.time for t in analyze(audio, fs, options=options).ticks]
     altered = alter_restitution(
         audio,
