@@ -21,7 +21,7 @@ _LAZY = {
         ("validity", ("MISSED_GROWTH", "Series")),
         ("report", ("Analysis", "Tick", "format_table", "to_csv", "to_dict")),
         ("pipeline", ("analyze", "analyze_file")),
-        ("plotting", ("check_plot_path", "plot_analysis")),
+        ("report", ("check_plot_path", "plot_analysis")),
     )
     for name in names
 }

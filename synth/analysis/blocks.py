@@ -3,7 +3,6 @@ bounded memory; a :class:`Source` is an array or a file."""
 
 from __future__ import annotations
 
-import abc
 import math
 import os
 from dataclasses import dataclass
@@ -27,16 +26,13 @@ OVERLAP = 2.0
 READ_FRAMES = 1 << 20
 
 
-class Source(abc.ABC):
-    """A recording read in pieces: ``frames``, ``channels``, ``samplerate`` (Hz), :meth:`read`."""
+class Source:
+    """A recording read in pieces: ``frames``, ``channels``, ``samplerate`` (Hz) and
+    ``read(start, stop)``, frames ``start .. stop - 1`` as float64 ``(n, channels)``."""
 
     frames: int
     channels: int
     samplerate: float
-
-    @abc.abstractmethod
-    def read(self, start: int, stop: int) -> np.ndarray:
-        """Frames ``start .. stop - 1``, float64, shape ``(n, channels)``."""
 
     def pieces(self):
         """The recording as ``(start, samples)`` of at most :data:`READ_FRAMES` frames."""
@@ -44,20 +40,12 @@ class Source(abc.ABC):
             yield start, self.read(start, min(self.frames, start + READ_FRAMES))
 
 
-@dataclass
 class ArraySource(Source):
     """A recording in memory, ``(frames, channels)`` float64."""
 
-    chans: np.ndarray
-    samplerate: float
-
-    @property
-    def frames(self) -> int:
-        return self.chans.shape[0]
-
-    @property
-    def channels(self) -> int:
-        return self.chans.shape[1]
+    def __init__(self, chans: np.ndarray, samplerate: float):
+        self.chans, self.samplerate = chans, samplerate
+        self.frames, self.channels = chans.shape
 
     def read(self, start: int, stop: int) -> np.ndarray:
         return self.chans[start:stop]
@@ -67,15 +55,11 @@ class FileSource(Source):
     """A sound file read in blocks, never whole; non-finite samples raise."""
 
     def __init__(self, path):
-        import soundfile
-
         self.path = os.fspath(path)
-        try:
-            info = soundfile.info(self.path)
-        except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
-            raise AnalysisError(f"cannot read {self.path!r} as sound: {exc}") from None
-        self.frames = int(info.frames)
-        self.channels = int(info.channels)
+        info = _info(self.path)
+        if info is None:
+            raise AnalysisError(f"cannot read {self.path!r} as sound")
+        self.frames, self.channels = int(info.frames), int(info.channels)
         self.samplerate = float(info.samplerate)
 
     def read(self, start: int, stop: int) -> np.ndarray:
@@ -94,14 +78,20 @@ class FileSource(Source):
         return a
 
 
-def file_frames(path) -> int | None:
-    """The frames a sound file declares, or None when soundfile cannot tell."""
+def _info(path: str):
+    """soundfile's description of the file at ``path``, or None when it cannot read it."""
     import soundfile
 
     try:
-        return int(soundfile.info(os.fspath(path)).frames)
+        return soundfile.info(path)
     except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError):
         return None
+
+
+def file_frames(path) -> int | None:
+    """The frames a sound file declares, or None when soundfile cannot tell."""
+    info = _info(os.fspath(path))
+    return None if info is None else int(info.frames)
 
 
 @dataclass(frozen=True)
@@ -119,7 +109,8 @@ class Survey:
 
 
 def survey(source: Source, channel: int | None) -> Survey:
-    """One pass over ``source`` in pieces: extremes, silence and noise floor."""
+    """Two passes over ``source`` in pieces: extremes, silence and noise floor, then the flat tops
+    at the extremes."""
     cols = slice(None) if channel is None else slice(channel, channel + 1)
     n_ch = source.channels if channel is None else 1
     highs, lows = np.full(n_ch, -np.inf), np.full(n_ch, np.inf)
@@ -127,22 +118,19 @@ def survey(source: Source, channel: int | None) -> Survey:
     powers = []
     for _, piece in source.pieces():
         used = piece[:, cols]
-        highs = np.maximum(highs, used.max(axis=0))
-        lows = np.minimum(lows, used.min(axis=0))
-        any_sample = any_sample or bool(np.any(used))
+        highs, lows = np.maximum(highs, used.max(axis=0)), np.minimum(lows, used.min(axis=0))
         mix = mix_of(used)
-        any_mix = any_mix or bool(np.any(mix))
-        fr = dsp.noise_frames(mix, source.samplerate)
-        powers.append(np.mean(fr**2, axis=1))
-    high_tops, low_tops = np.zeros(n_ch, dtype=int), np.zeros(n_ch, dtype=int)
-    for _, piece in source.pieces():  # the flat tops at the extremes, now known
-        used = piece[:, cols]
-        for c in range(n_ch):
-            high_tops[c] += np.count_nonzero(long_runs(used[:, c] == highs[c])) if highs[c] else 0
-            low_tops[c] += np.count_nonzero(long_runs(used[:, c] == lows[c])) if lows[c] else 0
+        any_sample, any_mix = any_sample or bool(np.any(used)), any_mix or bool(np.any(mix))
+        powers.append(np.mean(dsp.noise_frames(mix, source.samplerate) ** 2, axis=1))
+    tops = np.zeros((2, n_ch), dtype=int)
+    for _, piece in source.pieces():
+        for c, column in enumerate(piece[:, cols].T):
+            for row, level in enumerate((highs[c], lows[c])):
+                if level:
+                    tops[row, c] += np.count_nonzero(long_runs(column == level))
     ms = np.concatenate(powers)
     floor = float(np.sqrt(ms[dsp.quiet_frames(ms)].mean())) if ms.size else 0.0
-    return Survey(highs, lows, high_tops, low_tops, any_sample, any_mix, floor)
+    return Survey(highs, lows, tops[0], tops[1], any_sample, any_mix, floor)
 
 
 def mix_of(used: np.ndarray) -> np.ndarray:

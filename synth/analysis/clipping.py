@@ -28,22 +28,16 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
     """The clipped samples of ``chans`` (frames, channels), or None: ``min_count`` samples at an
     extreme in flat tops of :data:`FLAT_TOP` (a mere peak meets it once)."""
     mask = np.zeros(chans.shape, dtype=bool)
-    worst = None
-    for c in range(chans.shape[1]):
-        col = chans[:, c]
+    for c, col in enumerate(chans.T):
         for level in (col.max(), col.min()):
-            if level == 0.0:
-                continue
-            at = col == level
-            if np.count_nonzero(long_runs(at)) >= min_count:
-                mask[:, c] |= at
-        count = int(np.count_nonzero(mask[:, c]))
-        if count and (worst is None or count > worst[1]):
-            worst = (c, count, float(np.abs(col).max()))
-    if worst is None:
+            if level != 0.0 and np.count_nonzero(long_runs(col == level)) >= min_count:
+                mask[:, c] |= col == level
+    counts = np.count_nonzero(mask, axis=0)
+    if not counts.any():
         return None
-    c, count, peak = worst
-    return Clipping(mask, clipping_warning(int(np.count_nonzero(mask)), c, count, peak))
+    c = int(np.argmax(counts))  # the channel clipped most
+    peak = float(np.abs(chans[:, c]).max())
+    return Clipping(mask, clipping_warning(int(counts.sum()), c, int(counts[c]), peak))
 
 
 def clipping_warning(total: int, channel: int, count: int, peak: float) -> str:
@@ -73,7 +67,9 @@ def long_runs(mask: np.ndarray, least: int = FLAT_TOP) -> np.ndarray:
 
 def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``x`` with ``missing`` samples estimated by least squares under the filter ``a`` (Janssen et
-    al. 1986), none under its clipped magnitude."""
+    al. 1986), none under its clipped magnitude: the normal equations ``G v = b``, ``G_ij =
+    ra(|free_i - free_j|)`` (``ra`` the autocorrelation of ``a``), are banded (ridge 1e-9)."""
+    from scipy.linalg import solveh_banded
     from scipy.signal import correlate, oaconvolve
 
     p = a.size - 1
@@ -88,32 +84,22 @@ def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndar
         e0 = oaconvolve(y, a)[: y.size + p]  # prediction error with the gaps at 0
         # b_i = -sum_k a_k e0[i + k]
         b = -correlate(e0, a, mode="valid")[free]
-        v = _solve_banded_gram(free, ra, b)
-        short = np.abs(v) < np.abs(x[free])
-        short |= np.sign(v) != np.sign(x[free])
+        reach = np.searchsorted(free, free + p, side="right") - np.arange(free.size)
+        bw = max(int(np.max(reach)) - 1, 0)
+        ab = np.zeros((bw + 1, free.size))
+        for k in range(bw + 1):
+            lag = free[k:] - free[: free.size - k]
+            ab[bw - k, k:] = np.where(lag <= p, ra[np.minimum(lag, p)], 0.0)
+        ab[bw] *= 1.0 + 1e-9
+        v = solveh_banded(ab, b)
+        short = (np.abs(v) < np.abs(x[free])) | (np.sign(v) != np.sign(x[free]))
         y[free] = v
         if not short.any():
             break
-        fixed = free[short]
-        y[fixed] = x[fixed]
+        y[free[short]] = x[free[short]]
         free = free[~short]
     y[missing] = np.where(np.abs(y[missing]) < np.abs(level), level, y[missing])
     return y
-
-
-def _solve_banded_gram(free: np.ndarray, ra: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve ``G v = b``, ``G_ij = ra(|free_i - free_j|)`` (banded), ridge 1e-9."""
-    from scipy.linalg import solveh_banded
-
-    p = ra.size - 1
-    bw = int(np.max(np.searchsorted(free, free + p, side="right") - np.arange(free.size))) - 1
-    bw = max(bw, 0)
-    ab = np.zeros((bw + 1, free.size))
-    for k in range(bw + 1):
-        lag = free[k:] - free[: free.size - k]
-        ab[bw - k, k:] = np.where(lag <= p, ra[np.minimum(lag, p)], 0.0)
-    ab[bw] *= 1.0 + 1e-9
-    return solveh_banded(ab, b)
 
 
 def declipped_mix(chans: np.ndarray, mask: np.ndarray, order: int) -> np.ndarray:

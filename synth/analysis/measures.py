@@ -10,7 +10,6 @@ import numpy as np
 
 from synth.analysis.detection import standing_out
 from synth.analysis.report import Tick
-from synth.analysis.settings import Settings
 
 #: Samples kept before the onset in a tick's window (and in its model's).
 WINDOW_GUARD = 2
@@ -42,9 +41,7 @@ class FoundTick:
     detected: float
 
 
-def with_standing_out(
-    x: np.ndarray, found: list[FoundTick], whitening: Whitening, settings: Settings
-) -> list[FoundTick]:
+def with_standing_out(x, found: list[FoundTick], whitening: Whitening, settings) -> list[FoundTick]:
     """``found`` with step 8's ticks of ``x`` added, in time order."""
     extra = standing_out(x, whitening.whitened, np.array([f.onset for f in found]), settings)
     if extra.onsets.size == 0:
@@ -57,20 +54,12 @@ class TickMeter:
     """The measurements of the ticks ``found`` in ``x``, one at a time (:meth:`tick`): each depends
     only on its own model and window, the next window's start and the earlier onsets."""
 
-    def __init__(
-        self,
-        x: np.ndarray,
-        found: list[FoundTick],
-        whitenings: list[Whitening],
-        settings: Settings,
-        noise: float,
-    ):
+    def __init__(self, x, found: list[FoundTick], whitenings: list[Whitening], settings, noise):
         self.x, self.found, self.whitenings = x, found, whitenings
         self.settings, self.noise = settings, noise
-        self.onsets = np.array([f.onset for f in found])
-        self.starts = np.maximum(
-            np.floor([f.detected for f in found]).astype(int) - WINDOW_GUARD, 0
-        )
+        self.onsets = np.array([f.onset for f in found])  # samples
+        detected = np.floor([f.detected for f in found]).astype(int)
+        self.starts = np.maximum(detected - WINDOW_GUARD, 0)
 
     def time(self, i: int) -> float:
         """Onset of tick ``i``, s (as :meth:`tick` gives it)."""
@@ -78,23 +67,21 @@ class TickMeter:
 
     def tick(self, i: int) -> Tick:
         """The :class:`Tick` of the ``i``-th tick found."""
-        x, settings, found = self.x, self.settings, self.found
-        onsets, starts = self.onsets, self.starts
-        fs, on, s = settings.samplerate, onsets[i], starts[i]
-        e = min(x.size, s + settings.window)
+        settings, t, s, fs = self.settings, self.onsets, self.starts[i], self.settings.samplerate
+        e = min(self.x.size, s + settings.window)
         if not settings.subtract_tails:
-            y = x[s:e].copy()
+            y = self.x[s:e].copy()
         else:
-            stop = min(e, starts[i + 1]) if i + 1 < starts.size else e
-            y = own_sound(found[i], self.whitenings[found[i].whitening], s, e, stop)
-        bt = None if i == 0 else float((on - onsets[i - 1]) / fs)
-        prev = None if i < 2 else (onsets[i - 1] - onsets[i - 2]) / fs
+            stop = min(e, self.starts[i + 1]) if i + 1 < self.starts.size else e
+            f = self.found[i]
+            y = own_sound(f, self.whitenings[f.whitening], s, e, stop)
+        bt = None if i == 0 else float((t[i] - t[i - 1]) / fs)
         c, sp = spectral_moments(y, fs)
         return Tick(
             index=i + 1,
-            time=float(on / fs),
+            time=float(t[i] / fs),
             bounce_time=bt,
-            restitution=None if prev is None else float(bt / prev),
+            restitution=None if i < 2 else float(bt / ((t[i - 1] - t[i - 2]) / fs)),
             speed=None if bt is None else float(settings.gravity * bt / 2.0),
             energy=float(np.dot(y, y) / fs),
             peak=float(np.abs(y).max()),
@@ -102,7 +89,7 @@ class TickMeter:
             spread=sp,
             decay_time=decay_time(y, fs, settings.decay_smoothing, self.noise),
             window=float(y.size / fs),
-            strength=float(found[i].strength),
+            strength=float(self.found[i].strength),
         )
 
 

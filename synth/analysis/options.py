@@ -43,48 +43,30 @@ def _real(hi: float, unit: str, metavar: str, more: str = "", optional: bool = F
     return {"unit": unit, "metavar": metavar, "check": check, "allowed": f"in (0, {hi:g}]{more}"}
 
 
-def _integer(lo: int, hi: int | None = None, optional: bool = False):
-    """The check of an integer in ``lo..hi`` (``>= lo`` without ``hi``; or None)."""
-    allowed = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+def _integer(lo: int | None, hi: int | None = None, optional: bool = False, allowed: str = ""):
+    """The check of an integer in ``lo..hi`` (``>= lo`` without ``hi``; any without ``lo``; or
+    None where ``optional``), its message naming ``allowed``."""
+    allowed = allowed or (f"an integer >= {lo}" if hi is None else f"an integer in {lo}..{hi}")
 
     def check(name, value, checked) -> int | None:
         if optional and value is None:
             return None
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-            raise ParameterError(f"{name}={value!r} must be an integer {allowed}")
-        if value < lo or (hi is not None and value > hi):
+        if (
+            isinstance(value, (bool, np.bool_))
+            or not isinstance(value, (int, np.integer))
+            or (lo is not None and value < lo)
+            or (hi is not None and value > hi)
+        ):
             raise ParameterError(f"{name}={value!r} must be {allowed}")
         return int(value)
 
     return check
 
 
-def _channel(name, value, checked) -> int | None:
-    # its range is the recording's (make_settings)
-    if value is None:
-        return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ParameterError(f"{name}={value!r} must be None (mix) or a channel index")
-    return int(value)
-
-
 def _flag(name, value, checked) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise ParameterError(f"{name}={value!r} must be True or False")
     return bool(value)
-
-
-def _fraction(name, value, checked) -> float:
-    return checks.in_range(name, value, 0.0, 1.0)
-
-
-def _policy(name, value, checked) -> str:
-    return checks.choice(name, value, ON_CLIPPING)
-
-
-def channel_text(text: str) -> int | None:
-    """A channel from the command line: its number, or ``mix`` (None)."""
-    return None if text == "mix" else int(text)
 
 
 _option = checks.option
@@ -102,7 +84,8 @@ class AnalysisOptions:
         doc="gravity for the impact speeds v_n = g t_n / 2",
     )  # fmt: skip
     channel: int | None = _option(
-        None, unit="", metavar="N", check=_channel, parse=channel_text,
+        None, unit="", metavar="N", parse=lambda text: None if text == "mix" else int(text),
+        check=_integer(None, optional=True, allowed="None (mix) or a channel index"),
         allowed="a channel index of the audio, from 0, or None: the mean of the channels "
         "('mix' on the command line)",
         doc="the channel analysed",
@@ -145,7 +128,8 @@ class AnalysisOptions:
         doc="length of the running median giving the local background",
     )  # fmt: skip
     onset_fraction: float = _option(
-        0.1, unit="", metavar="F", check=_fraction, allowed="in (0, 1)",
+        0.1, unit="", metavar="F", allowed="in (0, 1)",
+        check=lambda name, value, _: checks.in_range(name, value, 0.0, 1.0),
         doc="level of the onset crossing, as a fraction of the burst's peak",
     )  # fmt: skip
     lpc_order: int | None = _option(
@@ -179,7 +163,8 @@ class AnalysisOptions:
         "least two, that mean clipping",
     )  # fmt: skip
     on_clipping: str = _option(
-        "warn", unit="", metavar="POLICY", check=_policy, parse=str, choices=ON_CLIPPING,
+        "warn", unit="", metavar="POLICY", parse=str,
+        check=lambda name, value, _: checks.choice(name, value, ON_CLIPPING), choices=ON_CLIPPING,
         allowed=", ".join(ON_CLIPPING),
         doc="report clipping in Analysis.warnings, or raise AnalysisError",
     )  # fmt: skip
@@ -202,10 +187,6 @@ class AnalysisOptions:
         """A copy with ``changes`` (fields by name), checked."""
         checks.check_names(type(self), changes, "an analysis option")
         return dataclasses.replace(self, **changes)
-
-    def as_dict(self) -> dict:
-        """The options by name, in the order of their fields."""
-        return {name: getattr(self, name) for name in OPTIONS}
 
 
 #: The names of the analysis options, in the order of their fields.

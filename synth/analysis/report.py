@@ -1,15 +1,20 @@
 """The result of an analysis: :class:`Tick` and :class:`Analysis`, and their presentation as a
-terminal table, JSON-ready data and CSV (SI units throughout)."""
+terminal table, JSON-ready data, CSV (SI units throughout) and a plot (matplotlib, written
+atomically)."""
 
 from __future__ import annotations
 
 import csv
 import io
+import os
 from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
-from synth.errors import ParameterError
+from synth import checks
+from synth.analysis.settings import audio_array
+from synth.errors import ParameterError, SynthError
+from synth.store.atomic import write_atomically
 
 #: Flag of a tick whose bounce time is not shorter than the one before (``e_n >= 1``).
 GROWN_BOUNCE = "restitution>=1"
@@ -92,21 +97,28 @@ def checked_analysis(name: str, value) -> Analysis:
     return value
 
 
-#: Columns of :func:`format_table` and :func:`to_csv`: (field, heading, unit, scale, format).
+#: Columns of :func:`format_table`: (field, heading, scale, format).
 _COLUMNS = (
-    ("index", "n", "", 1.0, "d"),
-    ("time", "time", "s", 1.0, ".5f"),
-    ("bounce_time", "bounce", "ms", 1e3, ".3f"),
-    ("restitution", "e", "", 1.0, ".4f"),
-    ("speed", "speed", "m/s", 1.0, ".4f"),
-    ("energy", "energy", "u^2 s", 1.0, ".4g"),
-    ("peak", "peak", "u", 1.0, ".4g"),
-    ("centroid", "centroid", "Hz", 1.0, ".0f"),
-    ("spread", "spread", "Hz", 1.0, ".0f"),
-    ("decay_time", "decay", "ms", 1e3, ".2f"),
-    ("strength", "strength", "dB", 1.0, ".1f"),
-    ("flags", "flags", "", 1.0, "s"),
+    ("index", "n", 1.0, "d"),
+    ("time", "time (s)", 1.0, ".5f"),
+    ("bounce_time", "bounce (ms)", 1e3, ".3f"),
+    ("restitution", "e", 1.0, ".4f"),
+    ("speed", "speed (m/s)", 1.0, ".4f"),
+    ("energy", "energy (u^2 s)", 1.0, ".4g"),
+    ("peak", "peak (u)", 1.0, ".4g"),
+    ("centroid", "centroid (Hz)", 1.0, ".0f"),
+    ("spread", "spread (Hz)", 1.0, ".0f"),
+    ("decay_time", "decay (ms)", 1e3, ".2f"),
+    ("strength", "strength (dB)", 1.0, ".1f"),
+    ("flags", "flags", 1.0, "s"),
 )
+
+
+def _text(value, scale: float, fmt: str) -> str:
+    """A table cell: ``-`` where undefined, the flags joined by commas."""
+    if isinstance(value, tuple):
+        value = ",".join(value) or None
+    return "-" if value is None else format(value * scale if scale != 1.0 else value, fmt)
 
 
 def format_table(analysis, *, warnings=True) -> str:
@@ -116,59 +128,44 @@ def format_table(analysis, *, warnings=True) -> str:
     if not isinstance(warnings, (bool, np.bool_)):
         raise ParameterError(f"warnings={warnings!r} must be True or False")
     e = an.mean_restitution
-    summary = (
+    lines = [
         f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
         f"channel {'mix' if an.channel is None else an.channel}, "
         f"noise floor {an.noise_floor:.3g}, mean e "
         f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2"
-    )
-    lines = [summary]
-    if warnings:
-        lines += [f"warning: {w}" for w in an.warnings]
-    head = [h + (f" ({u})" if u else "") for _, h, u, _, _ in _COLUMNS]
-    rows = []
-    for t in an.ticks:
-        row = []
-        for name, _, _, scale, fmt in _COLUMNS:
-            v = getattr(t, name)
-            if name == "flags":
-                v = ",".join(v) or None
-            row.append("-" if v is None else format(v * scale if scale != 1.0 else v, fmt))
-        rows.append(row)
-    widths = [
-        max(len(h), *(len(r[j]) for r in rows)) if rows else len(h) for j, h in enumerate(head)
     ]
-    lines.append("  ".join(h.rjust(w) for h, w in zip(head, widths)))
-    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
+    lines += [f"warning: {w}" for w in an.warnings] if warnings else []
+    table = [[h for _, h, _, _ in _COLUMNS]]
+    table += [[_text(getattr(t, n), sc, f) for n, _, sc, f in _COLUMNS] for t in an.ticks]
+    widths = [max(len(row[j]) for row in table) for j in range(len(_COLUMNS))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(row, widths)) for row in table]
     return "\n".join(lines)
+
+
+#: The units of :func:`to_dict`'s fields.
+_UNITS = dict.fromkeys(("time", "bounce_time", "decay_time", "window", "duration"), "s") | {
+    "speed": "m/s",
+    "energy": "signal units^2 s",
+    "peak": "signal units",
+    "centroid": "Hz",
+    "spread": "Hz",
+    "strength": "dB",
+    "samplerate": "Hz",
+    "noise_floor": "signal units",
+    "gravity": "m/s^2",
+}
 
 
 def to_dict(analysis) -> dict:
     """The analysis as plain JSON-ready data (SI units; ``None`` where undefined)."""
     an = checked_analysis("analysis", analysis)
     out = {f.name: getattr(an, f.name) for f in fields(an) if f.name not in ("ticks", "series")}
-    out["warnings"] = list(an.warnings)
-    out["mean_restitution"] = an.mean_restitution
-    seconds = ("time", "bounce_time", "decay_time", "window", "duration")
-    out["units"] = dict.fromkeys(seconds, "s") | {
-        "speed": "m/s",
-        "energy": "signal units^2 s",
-        "peak": "signal units",
-        "centroid": "Hz",
-        "spread": "Hz",
-        "strength": "dB",
-        "samplerate": "Hz",
-        "noise_floor": "signal units",
-        "gravity": "m/s^2",
-    }
+    out |= {"warnings": list(an.warnings), "mean_restitution": an.mean_restitution}
+    out["units"] = dict(_UNITS)
     out["ticks"] = [asdict(t) | {"flags": list(t.flags)} for t in an.ticks]
     out["series"] = [
-        {
-            "first": s.first,
-            "last": s.last,
-            "ticks": [t.index for t in s.ticks],
-            "mean_restitution": s.mean_restitution,
-        }
+        {"first": s.first, "last": s.last, "ticks": [t.index for t in s.ticks]}
+        | {"mean_restitution": s.mean_restitution}
         for s in an.series
     ]
     return out
@@ -176,21 +173,121 @@ def to_dict(analysis) -> dict:
 
 def to_csv(analysis) -> str:
     """The ticks as CSV: a header of the :class:`Tick` field names, one row each in SI units;
-    undefined values empty, flags joined by ``;``."""
+    undefined values empty, flags joined by ``;``, numbers as their exact ``repr``."""
     an = checked_analysis("analysis", analysis)
     names = [f.name for f in fields(Tick)]
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(names)
     for t in an.ticks:
-        w.writerow([_cell(getattr(t, n)) for n in names])
+        cells = [getattr(t, n) for n in names]
+        w.writerow(
+            ["" if v is None else ";".join(v) if isinstance(v, tuple) else repr(v) for v in cells]
+        )
     return buf.getvalue()
 
 
-def _cell(value) -> str:
-    """A CSV cell: empty for None, the flags joined by ``;``, else the exact ``repr``."""
-    if value is None:
-        return ""
-    if isinstance(value, tuple):
-        return ";".join(value)
-    return repr(value)
+def check_plot_path(path) -> str:
+    """Check that an image can be written to ``path`` before any work: an existing writable
+    directory and a suffix naming a format matplotlib writes. Returns the format (the lower-case
+    suffix). Raises ParameterError (naming ``path``), or SynthError without matplotlib."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ParameterError(f"path={path!r}: directory {folder!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ParameterError(f"path={path!r}: directory {folder!r} is not writable")
+    if os.path.isdir(path):
+        raise ParameterError(f"path={path!r} is a directory, not an image file name")
+    fmt = os.path.splitext(path)[1].lstrip(".").lower()
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+    except ImportError:
+        raise SynthError("plotting needs matplotlib: pip install matplotlib") from None
+    formats = FigureCanvasAgg.get_supported_filetypes()
+    if fmt not in formats:
+        raise ParameterError(
+            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}"
+        )
+    return fmt
+
+
+#: The two panels of two fields per tick on twin axes: title, then ``(field, scale, label,
+#: colour)`` of each axis.
+_TWIN_PANELS = (
+    ("bounce time and restitution", ("bounce_time", 1e3, "bounce time (ms)", "tab:blue"),
+     ("restitution", 1.0, "restitution e", "tab:orange")),
+    ("centroid and decay time", ("centroid", 1.0, "centroid (Hz)", "tab:purple"),
+     ("decay_time", 1e3, "decay time (ms)", "tab:brown")),
+)  # fmt: skip
+
+
+def plot_analysis(analysis, audio, samplerate, path):
+    """Draw the analysis to an image file (format from the suffix), written whole or not at all
+    (:func:`synth.store.atomic.write_atomically`); returns the matplotlib Figure. Four panels:
+    the analysed signal with the onsets; bounce time (ms) and restitution per bounce; tick energy
+    (log) against bounce number with ``E_1 ebar^(2 (n - 1))`` (``ebar`` the mean restitution);
+    centroid (Hz) and decay time (ms) per bounce. ``audio`` (frames[, channels]) is the
+    recording ``analysis`` was made of, at its ``samplerate`` (Hz). SynthError without
+    matplotlib."""
+    an = checked_analysis("analysis", analysis)
+    x = _analysed_signal(an, audio, samplerate)
+    fmt = check_plot_path(path)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
+
+    fig = Figure(figsize=(11, 8), layout="constrained")
+    FigureCanvasAgg(fig)
+    (signal, bounces), (energies, spectra) = fig.subplots(2, 2)
+    signal.plot(np.arange(x.size) / an.samplerate, x, lw=0.5, color="0.3")
+    for tk in an.ticks:
+        signal.axvline(tk.time, color="tab:red", lw=0.6, alpha=0.7)
+    signal.set(xlabel="time (s)", ylabel="signal", title=f"{len(an.ticks)} ticks detected")
+    n = np.array([tk.index for tk in an.ticks])
+    for ax, (title, left, right) in zip((bounces, spectra), _TWIN_PANELS):
+        ax.plot(n, _column(an, left[0], left[1]), "o-", color=left[3], ms=3)
+        ax.set(xlabel="tick", ylabel=left[2], title=title)
+        twin = ax.twinx()
+        twin.plot(n, _column(an, right[0], right[1]), "s-", color=right[3], ms=3)
+        twin.set_ylabel(right[2], color=right[3])
+    energy = _column(an, "energy")
+    energies.semilogy(n, energy, "o", color="tab:green", ms=4, label="tick energy")
+    e = an.mean_restitution
+    if e is not None and energy.size:
+        label = f"slope e^2, e = {e:.3f}"
+        energies.semilogy(n, energy[0] * (e * e) ** (n - 1.0), "--", color="0.4", label=label)
+    energies.set(xlabel="tick", ylabel="energy (signal units^2 s)", title="energy per tick")
+    energies.legend(loc="upper right")
+    for ax in (bounces, energies, spectra):
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    write_atomically(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=110), error=ParameterError)
+    return fig
+
+
+def _analysed_signal(an: Analysis, audio, samplerate) -> np.ndarray:
+    """The signal the analysis used (its channel, or the mix), checked against its rate, channels
+    and length."""
+    chans = audio_array(audio)
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    frames = int(round(an.duration * fs))
+    if fs != an.samplerate:
+        raise ParameterError(
+            f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz"
+        )
+    if an.channel is not None and an.channel >= chans.shape[1]:
+        raise ParameterError(
+            f"audio has {chans.shape[1]} channel(s) but the analysis used channel {an.channel}"
+            f" (pass the recording with all its channels)"
+        )
+    if chans.shape[0] != frames:
+        raise ParameterError(f"audio has {chans.shape[0]} frames but the analysis was of {frames}")
+    return chans.mean(axis=1) if an.channel is None else chans[:, an.channel]
+
+
+def _column(an: Analysis, name: str, scale: float = 1.0) -> np.ndarray:
+    """One field of every tick, NaN where undefined."""
+    values = (getattr(tk, name) for tk in an.ticks)
+    return np.array([np.nan if v is None else v * scale for v in values])

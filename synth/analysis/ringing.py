@@ -9,12 +9,7 @@ import math
 import numpy as np
 
 from synth import dsp
-from synth.analysis.detection import (
-    STANDS_OUT_BEFORE,
-    STANDS_OUT_SPAN,
-    noise_rise,
-    rise_at,
-)
+from synth.analysis.detection import STANDS_OUT_BEFORE, STANDS_OUT_SPAN, noise_rise, rise_at
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.settings import Settings
 from synth.analysis.whitening import one_blas_thread
@@ -35,6 +30,8 @@ def ringing_explained(
     ``dynamic_range_db`` under ``innovation``. False where it cannot be judged."""
     from scipy.signal import lfilter
 
+    from synth.analysis.search import RESONATOR_GAIN_DB  # step 7's gain: search imports this
+
     fs = s.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
     held = max(1, int(round(STANDS_OUT_BEFORE * fs)))
@@ -47,21 +44,17 @@ def ringing_explained(
     if a is None:
         return False
     e = lfilter(a, [1.0], x[end - a.size + 1 : on + span])[a.size - 1 :]
-    if end - start < int(round(RINGING_FIT * fs)) and not _predicts(x[end:on], e[:held]):
+    # a short fit models the ringing only where its error over the held-out stretch is
+    # RESONATOR_GAIN_DB under the ringing there
+    gain = 10.0 ** (RESONATOR_GAIN_DB / 10.0)
+    if end - start < int(round(RINGING_FIT * fs)) and not (
+        np.dot(x[end:on], x[end:on]) > gain * np.dot(e[:held], e[:held])
+    ):
         return False
     floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
     return rise_at(e, held, span, held) < noise_rise(span, held) or not (
         np.max(np.abs(e[held:])) > floor
     )
-
-
-def _predicts(held: np.ndarray, error: np.ndarray) -> bool:
-    """Whether a short fit models the ringing: its error over ``held`` is at least
-    :data:`~synth.analysis.search.RESONATOR_GAIN_DB` under the ringing itself."""
-    from synth.analysis.search import RESONATOR_GAIN_DB
-
-    gain = 10.0 ** (RESONATOR_GAIN_DB / 10.0)
-    return bool(np.dot(held, held) > gain * np.dot(error, error))
 
 
 def ringing_predictor(seg: np.ndarray) -> np.ndarray | None:

@@ -53,25 +53,18 @@ def too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
     return energy > energies[-1] * ratio * ratio * 10.0 ** (MAX_EXCESS_DB / 10.0)
 
 
-def bounce_series(
-    onsets: np.ndarray,
-    e_min: float,
-    growth: float = BOUNCE_GROWTH,
-    horizon: int = SERIES_HORIZON,
-    sure: np.ndarray | None = None,
-) -> list[int]:
-    """Indices of the longest bounce series from the first tick (step 3), by dynamic programming;
-    ``sure`` bounds its second tick (:func:`last_second`)."""
-    t = np.asarray(onsets[:horizon], dtype=float)
+def bounce_series(onsets: np.ndarray, e_min: float, sure: np.ndarray | None = None) -> list[int]:
+    """Indices of the longest bounce series from the first tick (step 3), by dynamic programming
+    over the first :data:`SERIES_HORIZON`; ``sure`` bounds its second tick (:func:`last_second`)."""
+    t = np.asarray(onsets[:SERIES_HORIZON], dtype=float)
     n = t.size
     if n < 3:
         return list(range(n))
-    latest = n - 1 if sure is None else last_second(t, np.asarray(sure[:horizon]), e_min, growth)
+    latest = n - 1 if sure is None else last_second(t, np.asarray(sure[:SERIES_HORIZON]), e_min)
     # best[i, j]: most ticks in a series from tick 0 ending ..., t_i, t_j; second[i, j]:
     # its second tick; back[i, j]: the tick before t_i
-    best, second, back = _series_tables(t, latest, e_min, growth)
-    top = best.max()
-    ends = np.argwhere(best == top)
+    best, second, back = _series_tables(t, latest, e_min, BOUNCE_GROWTH)
+    ends = np.argwhere(best == best.max())
     i, j = min(ends, key=lambda ij: (second[ij[0], ij[1]], ij[1]))
     chain = [int(j), int(i)]
     while back[i, j] >= 0:
@@ -114,73 +107,63 @@ def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
     return best, second, back
 
 
-def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) -> int:
+def last_second(t: np.ndarray, sure: np.ndarray, e_min: float) -> int:
     """Latest possible second tick: the first sure one that the next sure one follows in bounce
     order (three are a series, not a response); else the last."""
     idx = np.nonzero(sure)[0]
     idx = idx[idx > 0]
     for c, d in zip(idx[:-1], idx[1:]):
-        bounce = t[c] - t[0]
-        if e_min * bounce <= t[d] - t[c] <= growth * bounce:
+        if _in_order(t, [0, c, d], e_min):
             return int(c)
     return t.size - 1
 
 
-def _in_order(on, kept, e_min, growth) -> bool:
-    """Whether the last bounce of ``kept`` is within ``e_min`` .. ``growth`` of the one before."""
+def _in_order(on, kept, e_min) -> bool:
+    """Whether the last bounce of ``kept`` is within ``e_min`` .. :data:`BOUNCE_GROWTH` times the
+    one before."""
     if len(kept) < 3:
         return True
     before = on[kept[-2]] - on[kept[-3]]
-    return e_min * before <= on[kept[-1]] - on[kept[-2]] <= growth * before
+    return e_min * before <= on[kept[-1]] - on[kept[-2]] <= BOUNCE_GROWTH * before
 
 
-def bounce_order(
-    onsets: np.ndarray, strengths: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH
-) -> np.ndarray:
+def bounce_order(onsets: np.ndarray, strengths: np.ndarray, e_min: float) -> np.ndarray:
     """Indices of the ticks that keep the order of a bounce series (step 6), in time order after the
-    first two: :func:`_too_soon`, :func:`_split_bounce`, then :func:`_drop_splits`."""
-    on = onsets
+    first two. A tick too soon after the last is dropped, unless the last is a doubtful remainder
+    just before it, which it replaces; a late one is kept as :func:`_split_bounce` rules; then
+    :func:`_drop_splits`."""
+    on, st = onsets, strengths
     kept = list(range(min(2, on.size)))
     for i in range(2, on.size):
         t_last = on[kept[-1]] - on[kept[-2]]
         t = on[i] - on[kept[-1]]
         if t < e_min * t_last:
-            _too_soon(on, strengths, kept, i, e_min, growth)
-            continue
-        if t > growth * t_last and not _split_bounce(on, strengths, kept, i, e_min, growth):
-            continue  # a late remainder
-        kept.append(i)
-    _drop_splits(on, strengths, kept)
+            weak = st[kept[-1]]
+            if weak < DOUBTFUL_DB and st[i] > weak and _in_order(on, kept[:-1] + [i], e_min):
+                kept[-1] = i
+        elif t <= BOUNCE_GROWTH * t_last or _split_bounce(on, st, kept, i, e_min):
+            kept.append(i)
+    _drop_splits(on, st, kept)
     return np.array(kept, dtype=int)
 
 
-def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) -> None:
-    """Tick ``i`` is too soon after the last: dropped, unless the last is a doubtful remainder just
-    before it, which it replaces in ``kept``."""
-    if (
-        strengths[kept[-1]] < DOUBTFUL_DB
-        and strengths[i] > strengths[kept[-1]]
-        and _in_order(on, kept[:-1] + [i], e_min, growth)
-    ):
-        kept[-1] = i
-
-
-def _split_bounce(on, strengths, kept: list, i: int, e_min: float, growth: float) -> bool:
-    """Tick ``i`` ends a bounce over ``growth`` times the one before: drop the tick that split a
-    bounce, or the weaker unsure ticks before; returns whether ``i`` is kept."""
+def _split_bounce(on, strengths, kept: list, i: int, e_min: float) -> bool:
+    """Tick ``i`` ends a bounce over :data:`BOUNCE_GROWTH` times the one before: drop the tick that
+    split a bounce, or the weaker unsure ticks before; returns whether ``i`` is kept (not a late
+    remainder)."""
     options = [
         j
         for j in (len(kept) - 1, len(kept) - 2)
         if j >= 2
         and strengths[kept[j]] < strengths[i]
-        and _in_order(on, kept[:j] + kept[j + 1 :] + [i], e_min, growth)
-        and _in_order(on, kept[:j] + kept[j + 1 :], e_min, growth)
+        and _in_order(on, kept[:j] + kept[j + 1 :] + [i], e_min)
+        and _in_order(on, kept[:j] + kept[j + 1 :], e_min)
     ]
     run = None
     for m in range(2, len(kept) - 1):
         if max(strengths[j] for j in kept[-m:]) >= min(strengths[i], ANCHOR_DB):
             break
-        if _in_order(on, kept[:-m] + [i], e_min, growth):
+        if _in_order(on, kept[:-m] + [i], e_min):
             run = m
             break
     if options:

@@ -33,17 +33,22 @@ class AnalysisError(SynthError, ValueError):
 
 @dataclass(frozen=True)
 class Settings:
-    """The options of one recording: its rate and durations in samples, the options' other
-    fields read through (:class:`AnalysisOptions`); ``innovation``: the recording's
-    largest whitened magnitude."""
+    """The options of one recording in samples (durations, the detection frame, the onset walk's
+    gaps), its rate (Hz) and the detection's floor (dB: :data:`DYNAMIC_RANGE_DB` unless given);
+    the options' other fields read through; ``innovation``: the largest whitened magnitude."""
 
     options: AnalysisOptions
-    samplerate: float  # Hz
-    min_separation: int  # samples
-    hop: int  # samples
-    window: int  # samples
-    decay_smoothing: int  # samples
+    samplerate: float
+    min_separation: int
+    hop: int
+    frame: int  # samples summed in a frame of the detection function
+    window: int
+    decay_smoothing: int
     whitening_order: int
+    onset_gap: int
+    weak_onset_gap: int
+    dynamic_range_db: float
+    e_min: float  # least restitution of a bounce, 10^(-max_drop_db / 20)
     innovation: float | None = None
 
     def __getattr__(self, name):
@@ -51,41 +56,9 @@ class Settings:
             return getattr(self.options, name)
         raise AttributeError(name)
 
-    @property
-    def dynamic_range_db(self) -> float:
-        """The detection's floor, dB (:data:`DYNAMIC_RANGE_DB` unless given)."""
-        given = self.options.dynamic_range_db
-        return DYNAMIC_RANGE_DB if given is None else given
-
-    @property
-    def fixed_range(self) -> bool:
-        """Whether ``dynamic_range_db`` was given."""
-        return self.options.dynamic_range_db is not None
-
-    @property
-    def fixed_order(self) -> bool:
-        """Whether ``lpc_order`` was given: that order alone, no step 7."""
-        return self.options.lpc_order is not None
-
-    @property
-    def frame(self) -> int:
-        """Samples summed in a frame of the detection function."""
-        return max(self.hop, MIN_FRAME)
-
-    @property
-    def e_min(self) -> float:
-        """Least restitution of a bounce, ``10^(-max_drop_db / 20)``."""
-        return 10.0 ** (-self.max_drop_db / 20.0)
-
-    @property
-    def onset_gap(self) -> int:
-        """Longest gap bridged by the onset walk, samples."""
-        return max(2, int(round(ONSET_GAP * self.samplerate)))
-
-    @property
-    def weak_onset_gap(self) -> int:
-        """Longest gap bridged by the onset walk in a weak burst, samples."""
-        return max(self.onset_gap, int(round(WEAK_ONSET_GAP * self.samplerate)))
+    #: Whether ``dynamic_range_db`` was given; whether ``lpc_order`` was (that order, no step 7).
+    fixed_range = property(lambda self: self.options.dynamic_range_db is not None)
+    fixed_order = property(lambda self: self.options.lpc_order is not None)
 
 
 def make_settings(channels: int, samplerate, options: AnalysisOptions) -> Settings:
@@ -98,46 +71,48 @@ def make_settings(channels: int, samplerate, options: AnalysisOptions) -> Settin
             f"channel={o.channel!r} is out of range: the audio has {channels} channel(s), "
             f"allowed 0..{channels - 1} or None (mix)"
         )
+
+    def samples(name: str, lo: int = 1) -> int:  # a duration option in samples, at least lo
+        n = int(round(getattr(o, name) * fs))
+        if n < lo:
+            raise ParameterError(
+                f"{name}={getattr(o, name)!r} is shorter than {lo} sample(s) at {fs:g} Hz (s)"
+            )
+        return n
+
+    hop, onset_gap = samples("hop"), max(2, int(round(ONSET_GAP * fs)))
     return Settings(
         options=o,
         samplerate=fs,
-        min_separation=_samples("min_separation", o.min_separation, fs),
-        hop=_samples("hop", o.hop, fs),
-        window=_samples("window", o.window, fs),
-        decay_smoothing=_samples("decay_smoothing", o.decay_smoothing, fs, lo=3),
+        min_separation=samples("min_separation"),
+        hop=hop,
+        frame=max(hop, MIN_FRAME),
+        window=samples("window"),
+        decay_smoothing=samples("decay_smoothing", lo=3),
         whitening_order=(
             max(8, int(round(WHITENING_SPAN * fs))) if o.lpc_order is None else o.lpc_order
         ),
+        onset_gap=onset_gap,
+        weak_onset_gap=max(onset_gap, int(round(WEAK_ONSET_GAP * fs))),
+        dynamic_range_db=DYNAMIC_RANGE_DB if o.dynamic_range_db is None else o.dynamic_range_db,
+        e_min=10.0 ** (-o.max_drop_db / 20.0),
     )
 
 
 def audio_array(audio) -> np.ndarray:
     """``audio`` as float64 ``(frames, channels)``: real, finite, not empty."""
-    a = audio if isinstance(audio, np.ndarray) else np.asarray(audio)
-    if a.dtype == bool or not (
-        np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
-    ):
+    a = np.asarray(audio)
+    if a.dtype.kind not in "fiu":  # no bool, complex, string or object samples
         raise ParameterError(f"audio must hold real samples (floats), not dtype {a.dtype}")
     if a.ndim not in (1, 2):
         raise ParameterError(f"audio must be (frames,) or (frames, channels), got shape {a.shape}")
     if a.size == 0:
         raise ParameterError(f"audio is empty (shape {a.shape})")
     a = a.astype(np.float64, copy=False)
-    finite = np.isfinite(a)
-    if not finite.all():
-        raise ParameterError(
-            f"audio holds {a.size - int(np.count_nonzero(finite))} NaN or infinite samples; "
-            f"all must be finite"
-        )
+    bad = a.size - int(np.count_nonzero(np.isfinite(a)))
+    if bad:
+        raise ParameterError(f"audio holds {bad} NaN or infinite samples; all must be finite")
     return a if a.ndim == 2 else a[:, None]
-
-
-def _samples(name: str, seconds: float, fs: float, lo: int = 1) -> int:
-    """A duration in s, as a whole number of samples (at least ``lo``)."""
-    n = int(round(seconds * fs))
-    if n < lo:
-        raise ParameterError(f"{name}={seconds!r} is shorter than {lo} sample(s) at {fs:g} Hz (s)")
-    return n
 
 
 def check_recording_path(path) -> None:
@@ -151,11 +126,10 @@ def check_recording_path(path) -> None:
 
 
 def read_recording(path) -> tuple[np.ndarray, float]:
-    """Read a sound file (WAV, FLAC, OGG, AIFF, ..., any rate and channels) for
-    :func:`synth.analysis.analyze`: ``(audio, samplerate)``, the samples as float64 ``(frames,
-    channels)`` in units of full scale and the rate in Hz. Warns ``TruncatedAudioWarning`` where
-    a WAV file holds fewer frames than its header declares. Raises ParameterError for a bad or
-    missing ``path``, AnalysisError for an unreadable file or one without samples."""
+    """A sound file (WAV, FLAC, OGG, AIFF, ...) as ``(audio, samplerate)``: float64 ``(frames,
+    channels)`` in units of full scale, Hz. Warns ``TruncatedAudioWarning`` where a WAV file holds
+    fewer frames than its header declares; ParameterError for a bad or missing ``path``,
+    AnalysisError for an unreadable file or one without samples."""
     check_recording_path(path)
     from synth.store.audio import AudioFileError, read_audio
 
@@ -165,5 +139,4 @@ def read_recording(path) -> tuple[np.ndarray, float]:
         raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
     if audio.shape[0] == 0:  # before the reshape: (0,) has no channel count to infer
         raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
-    audio = audio.reshape(audio.shape[0], -1)
-    return audio, float(samplerate)
+    return audio.reshape(audio.shape[0], -1), float(samplerate)

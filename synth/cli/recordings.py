@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 import numpy as np
 
@@ -15,8 +16,6 @@ def _cmd_analyze(args):
 
     if args.plot:
         analysis.check_plot_path(args.plot)  # a bad image path fails before any output
-    import warnings
-
     from synth.store.audio import TruncatedAudioWarning
 
     with warnings.catch_warnings():
@@ -38,18 +37,6 @@ def _cmd_analyze(args):
     return 0
 
 
-def _read_warned(reader, path):
-    """``reader(path)``, its warnings (a truncated file) printed as the command's own."""
-    import warnings
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        out = reader(path)
-    for w in caught:
-        print(f"synth: warning: {w.message}", file=sys.stderr)
-    return out
-
-
 def _analysis_options(args):
     """The analysis options of the command's flags; unset ones keep their defaults."""
     from synth.analysis.options import OPTIONS, from_text
@@ -66,7 +53,11 @@ def _cmd_alter(args):
 
     audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
     options = _analysis_options(args)
-    audio, fs = _read_warned(audio_io.read_audio, args.file)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        audio, fs = audio_io.read_audio(args.file)
+    for w in caught:  # a truncated file's, printed as the command's own
+        print(f"synth: warning: {w.message}", file=sys.stderr)
     onsets = [t.time for t in analyze(audio, fs, options=options).ticks]
     altered = alter_restitution(
         audio,
@@ -78,8 +69,7 @@ def _cmd_alter(args):
         min_bounce=args.min_bounce,
         normalize=args.normalize,
     )
-    out, t_new = altered.audio, altered.onsets
-    e, e_new = altered.restitution, altered.new_restitution
+    out, kept = altered.audio, len(altered.onsets)
     peak = float(np.max(np.abs(out)))
     subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
     if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:
@@ -89,17 +79,13 @@ def _cmd_alter(args):
             f"(or a .wav file with --subtype FLOAT)"
         )
     audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
-    dropped = len(onsets) - len(t_new)
     shortest = args.min_bounce if args.min_bounce is not None else float(np.min(np.diff(onsets)))
-    end = (
-        f"; the series ends after {len(t_new)} ticks ({dropped} dropped: the next bounce "
-        f"would be shorter than {shortest * 1e3:.3g} ms)"
-        if dropped
-        else ""
-    )
+    end = f"; the series ends after {kept} ticks ({len(onsets) - kept} dropped: the next bounce "
+    end += f"would be shorter than {shortest * 1e3:.3g} ms)"
     print(
-        f"{args.output}: {len(t_new)} ticks re-laid; e {np.mean(e):.3f} -> "
-        f"{np.mean(e_new):.3f} (mean over bounces){end}, {out.shape[0] / fs:.3f} s, "
+        f"{args.output}: {kept} ticks re-laid; e {np.mean(altered.restitution):.3f} -> "
+        f"{np.mean(altered.new_restitution):.3f} (mean over bounces)"
+        f"{end if kept < len(onsets) else ''}, {out.shape[0] / fs:.3f} s, "
         f"normalize={args.normalize}"
     )
     return 0
