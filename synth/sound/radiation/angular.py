@@ -126,8 +126,7 @@ def arc_panels(r, kb, tol, refine, arcs) -> list:
     orders times ``refine``."""
     # kb r rounded up to an integer so that neighbouring radii share the computation
     rate = float(_angular_band(float(math.ceil(kb * r)), tol))
-    w24 = half_phase(MAX_ORDER, tol)
-    h = 2.0 * w24 / rate if rate > 0 else math.inf
+    h = panel_length(rate, tol)
     out = []
     for lo, hi in arcs:
         n = max(1, math.ceil((hi - lo) / h))

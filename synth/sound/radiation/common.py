@@ -129,16 +129,9 @@ def check_listener(listener_position) -> tuple[float, float, float]:
 
 
 def check_size(size) -> tuple[float, float]:
-    try:
-        items = tuple(size)
-    except TypeError:
-        items = ()
-    if len(items) != 2:
-        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
-    return (
-        checks.positive("size.a", items[0], "metres"),
-        checks.positive("size.b", items[1], "metres"),
-    )
+    """The plate's ``size`` (a, b), m, both > 0."""
+    a, b = checks.point("size", size, 2)
+    return checks.positive("size.x", a, "metres"), checks.positive("size.y", b, "metres")
 
 
 def distance_range(size, listener) -> tuple[float, float]:
