@@ -245,28 +245,22 @@ class PolarRule(Rule):
     ``X_i(x) Y_j(y)``; the angular sums are shared by all modes, the radial sums cost per
     mode an exponential and a ``J_0``."""
 
-    name = "polar"
-    shapes = ("separable",)
+    name, shapes, summed = "polar", ("separable",), False
 
     def counts(self, p):
-        return polar_work(p, summed=False)
+        return polar_work(p, summed=self.summed)
 
     def gains(self, modes, listener, s, settings):
+        if self.summed:
+            return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
         return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
 
 
-class SummedRule(Rule):
+class SummedRule(PolarRule):
     """The polar rule for sums of products (:func:`~.polar.summed_gains`): per radius and
     mode the combination of its Ritz coefficients."""
 
-    name = "summed"
-    shapes = ("summed",)
-
-    def counts(self, p):
-        return polar_work(p, summed=True)
-
-    def gains(self, modes, listener, s, settings):
-        return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
+    name, shapes, summed = "summed", ("summed",), True
 
 
 class BandedRule(Rule):
