@@ -41,19 +41,6 @@ MAX_IMPACTS = 100_000
 _option = checks.option
 
 
-def _samplerate(name, value, checked) -> int:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, np.integer))
-        or not MIN_SAMPLERATE <= value <= MAX_SAMPLERATE
-    ):
-        raise ParameterError(
-            f"{name}={value!r} must be an integer number of Hz in "
-            f"[{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]"
-        )
-    return int(value)
-
-
 def _choice(name, value, checked) -> str:
     checks.choice(name, value, NORMALIZE)
     return value
@@ -102,14 +89,13 @@ def _seconds(hi: float, lo_open: bool = True):
     return check
 
 
-def _integer(lo: int, hi: int):
+def _integer(lo: int, hi: int, what: str = "an integer"):
+    """The check of an integer in ``[lo, hi]`` (``what``: how the message names it)."""
+
     def check(name, value, checked) -> int:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, (int, np.integer))
-            or not lo <= value <= hi
-        ):
-            raise ParameterError(f"{name}={value!r} must be an integer in [{lo}, {hi}]")
+        integer = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+        if not (integer and lo <= value <= hi):
+            raise ParameterError(f"{name}={value!r} must be {what} in [{lo}, {hi}]")
         return int(value)
 
     return check
@@ -125,9 +111,9 @@ class RenderOptions:
     """
 
     samplerate: int = _option(
-        dataclasses.MISSING, unit="Hz", metavar="HZ", check=_samplerate,
+        dataclasses.MISSING, unit="Hz", metavar="HZ", doc="sample rate",
+        check=_integer(MIN_SAMPLERATE, MAX_SAMPLERATE, "an integer number of Hz"),
         allowed=f"an integer in [{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]",
-        doc="sample rate",
     )  # fmt: skip
     normalize: str = _option(
         "peak", unit="", metavar="MODE", check=_choice, choices=NORMALIZE,

@@ -25,7 +25,8 @@ import numpy as np
 from synth import checks
 from synth.compilation import compiled
 from synth.errors import ParameterError
-from synth.sound.modal_bank import Bank, bank_coefficients, kept_modes, ring_bank, synthesize
+from synth.sound.modal_bank import Bank, kept_modes, ring_bank, synthesize
+from synth.sound.modal_bank.pulse import response_per_transform
 
 #: Points of the mode-shape table per bending wavelength of the highest mode.
 POINTS_PER_WAVELENGTH = 32
@@ -161,9 +162,8 @@ def drive_modes(
             raise ParameterError(f"state={state!r} must be a ModeState of {K} modes")
     # the ringing over one sample and the listener's response per unit state, as the
     # modal bank has them (unit excitation: b_k moves with the contact point here)
-    coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
-    ringing = coefficients.step_re + 1j * coefficients.step_im
-    listener = coefficients.coef_re + 1j * coefficients.coef_im
+    ringing = np.exp(p * (1.0 / fs))
+    listener = response_per_transform(p, np.ones(K), out_gain)
     hold = (np.exp(p / fs) - 1.0) / p
     audio = np.zeros(F.size)
     zeta = np.zeros(K, dtype=complex)
@@ -228,8 +228,7 @@ def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
     p = np.asarray(poles, dtype=complex)
     F = np.asarray(force, dtype=float)
     f_max = float(np.max(np.abs(F))) if F.size else 0.0
-    coefficients = bank_coefficients(p, np.ones(p.size), np.asarray(output, dtype=complex), fs)
-    listener = np.abs(coefficients.coef_re + 1j * coefficients.coef_im)
+    listener = np.abs(response_per_transform(p, np.ones(p.size), np.asarray(output, complex)))
     b_max = np.max(np.abs(path.excitation), axis=0)
     if state is not None:
         start = np.abs(np.asarray(state.zeta))
@@ -550,8 +549,7 @@ def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray,
     b = model.excitation(point)
     F = rolling.final_force
     static = -b * F / p
-    coefficients = bank_coefficients(p, np.ones(p.size), model.output, fs)
-    gain = coefficients.coef_re + 1j * coefficients.coef_im
+    gain = response_per_transform(p, np.ones(p.size), model.output)
     constant = float(np.sum((gain * static).real))
     direct = model.direct(b)
     if direct is not None:

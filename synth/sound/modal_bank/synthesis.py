@@ -79,15 +79,8 @@ def synthesize(
         weight = float(settled_weight[i]) if settled_weight is not None else 0.0
         if per_impact and i:
             coefficients = bank_coefficients(poles, excitation[i], output, fs)
-        ex = impact_excitation(
-            coefficients,
-            res,
-            float(t0),
-            weight=weight,
-            pulse_points=pulse_points,
-            amplitudes=amps[i],
-            work=work,
-        )
+        ex = impact_excitation(coefficients, res, float(t0), weight=weight, work=work,
+                               pulse_points=pulse_points, amplitudes=amps[i])  # fmt: skip
         inject[i] = ex.inject
         contact_samples.append(
             (ex.first + np.arange(ex.response.size, dtype=np.int64), ex.response, ex.forces)
@@ -101,18 +94,11 @@ def synthesize(
     out = np.zeros(length)
     announce("modal-bank")
     t_bank = time.perf_counter()
-    work, last, left = (
-        ring_bank(
-            out,
-            fs,
-            poles[keep],
-            np.ascontiguousarray(amps[:, keep]),
-            inject,
-            np.full(int(keep.sum()), thr),
-        )
-        if keep.any()
-        else (0, 0, 0.0)
-    )
+    work, last, left = 0, 0, 0.0
+    if keep.any():
+        kept = np.ascontiguousarray(amps[:, keep])
+        thresholds = np.full(kept.shape[1], thr)
+        work, last, left = ring_bank(out, fs, poles[keep], kept, inject, thresholds)
     t_bank = time.perf_counter() - t_bank
     last = _add_contacts(out, contact_samples, direct, last)
     length = max(1, min(length, last))
@@ -120,17 +106,9 @@ def synthesize(
     # what is left out at the end of the audio: the kept modes' remainder there, and the
     # modes left out whole (each at most its share)
     left += float(np.sum(total[~keep]))
-    info = dict(
-        n_modes=K,
-        n_modes_rendered=int(keep.sum()),
-        mode_samples=int(work),
-        reference=reference,
-        threshold=thr,
-        length=length,
-        bank_seconds=t_bank,
-        transform_seconds=t_transform,
-        left_at_end=left,
-    )
+    info = dict(n_modes=K, n_modes_rendered=int(keep.sum()), mode_samples=int(work),
+                reference=reference, threshold=thr, length=length, bank_seconds=t_bank,
+                transform_seconds=t_transform, left_at_end=left)  # fmt: skip
     return out, info
 
 

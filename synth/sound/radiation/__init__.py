@@ -31,8 +31,8 @@ from synth.sound.radiation.common import (
     check_listener,
     check_poles,
     check_settings,
+    gains_of,
     half_phase,
-    warn_unconverged,
 )
 from synth.sound.radiation.polar import separable_gains, summed_gains
 from synth.sound.radiation.rectangle import rayleigh_gains
@@ -96,28 +96,20 @@ def plate_gains(modes, listener_position, s, *, full_output=False, cache=True, *
         problem = _problem(modes, listener, q_s, checked)
         rule = choose_rule(problem).rule
 
-    def compute():
-        return frozen(rule.gains(modes, listener, q_s, checked.keywords()))
-
-    if not cache:
-        result = compute()
-        CACHE.count("computed")
-    else:
-        key = gains_key(modes, listener, q_s, checked, type(rule).__name__)
-        result = CACHE.get(key)
-        if result is None:
-            result = load_gains(key, q_s.size)
-            if result is not None:
-                CACHE.put(key, result, source="disk")
-            else:
-                result = compute()
-                CACHE.put(key, result, source="computed")
-                save_gains(result, key)
-    if full_output:
-        return result
-    if not result.success:
-        warn_unconverged("plate_gains", result, checked.tol)
-    return result.gains
+    key = gains_key(modes, listener, q_s, checked, type(rule).__name__) if cache else None
+    result = None if key is None else CACHE.get(key)
+    if result is None and key is not None:
+        result = load_gains(key, q_s.size)
+        if result is not None:
+            CACHE.put(key, result, source="disk")
+    if result is None:
+        result = frozen(rule.gains(modes, listener, q_s, checked.keywords()))
+        if key is None:
+            CACHE.count("computed")
+        else:
+            CACHE.put(key, result, source="computed")
+            save_gains(result, key)
+    return gains_of(result, "plate_gains", checked.tol, full_output)
 
 
 def distance(listener_position, reference_point) -> float:

@@ -21,6 +21,7 @@ from synth.sound.radiation.common import (
     gauss,
     half_phase,
     min_order,
+    panel_length,
 )
 
 
@@ -52,6 +53,16 @@ def circle_arcs(r: float, a: float, b: float, xl: float, yl: float) -> tuple[lis
         else:
             arcs.append((lo, hi))
     return on, off
+
+
+def shorter_arcs(r: float, a: float, b: float, xl: float, yl: float) -> tuple[bool, list]:
+    """Whether the arcs of :func:`circle_arcs` off the plate are shorter than those on it
+    (the separable rule then sums those: the whole circle in closed form minus them), and
+    the shorter arcs."""
+    on, off = circle_arcs(r, a, b, xl, yl)
+    if sum(hi - lo for lo, hi in off) < sum(hi - lo for lo, hi in on):
+        return True, off
+    return False, on
 
 
 _ANGLE_MIN_ORDER = 4  # Gauss-Legendre points of the shortest angular panels
@@ -115,8 +126,7 @@ def arc_panels(r, kb, tol, refine, arcs) -> list:
     orders times ``refine``."""
     # kb r rounded up to an integer so that neighbouring radii share the computation
     rate = float(_angular_band(float(math.ceil(kb * r)), tol))
-    w24 = half_phase(MAX_ORDER, tol)
-    h = 2.0 * w24 / rate if rate > 0 else math.inf
+    h = panel_length(rate, tol)
     out = []
     for lo, hi in arcs:
         n = max(1, math.ceil((hi - lo) / h))
@@ -207,54 +217,49 @@ def radial_segments(a: float, b: float, xl: float, yl: float):
     return r_min, r_max, singular, kinks
 
 
-def radial_panels(a, b, listener, h, h_substituted=None):
-    """Radial panels ``(lo, hi, kind)``: ``kind`` 0 plain, +1 (-1) with the
-    ``sqrt`` behaviour at ``lo`` (``hi``) removed by a quadratic substitution.
-    At most ``h`` long and, from the microphone's projection, at most
-    ``2 max(z, r)`` long (as along x and y in :mod:`synth.sound.radiation.rectangle`);
-    a substituted panel at most ``h_substituted`` long (m, default ``h / 2``)."""
+def radial_panels(a, b, listener, h):
+    """Radial panels ``(lo, hi, kind)``: ``kind`` 0 plain, +1 (-1) with the ``sqrt``
+    behaviour at ``lo`` (``hi``) removed by a quadratic substitution. At most ``h`` long (a
+    substituted one ``h / 2``: it doubles the phase per unit of its variable) and, from the
+    microphone's projection, at most ``2 max(z, r)`` long (as along x and y in
+    :mod:`synth.sound.radiation.rectangle`)."""
     xl, yl, zl = listener
-    sub = 0.5 * h if h_substituted is None else min(0.5 * h, h_substituted)
+    sub = 0.5 * h
     r_min, r_max, singular, kinks = radial_segments(a, b, xl, yl)
-    # breakpoints closer than 1e-12 r_max are one (rounding of equal distances)
-    points = sorted(
-        [(r_min, False), (r_max, False)]
-        + [(t, True) for t in singular]
-        + [(t, False) for t in kinks]
-    )
+    points = sorted([(r_min, False), (r_max, False), *((t, True) for t in singular),
+                     *((t, False) for t in kinks)])  # fmt: skip
     ends, sing = [], []
-    for t, s in points:
+    for t, s in points:  # breakpoints closer than 1e-12 r_max are one (rounding)
         if ends and t - ends[-1] <= 1e-12 * r_max:
             sing[-1] = sing[-1] or s
         else:
             ends.append(t)
             sing.append(s)
     ends[-1] = r_max
-    panels = []
+    pieces = []
     for t0, t1, lo_s, hi_s in zip(ends[:-1], ends[1:], sing[:-1], sing[1:]):
-        pieces = [(t0, t1, lo_s, hi_s)]
         if lo_s and hi_s:
             mid = 0.5 * (t0 + t1)
-            pieces = [(t0, mid, True, False), (mid, t1, False, True)]
-        for p0, p1, s0, s1 in pieces:
-            cuts = [p0]
-            t = p0
-            while t < p1:
-                t = min(t + min(h, GRADING * max(zl, t)), p1)
-                cuts.append(t)
-            # a substituted panel doubles the phase per unit of its variable: h / 2 long
-            if s0 and cuts[1] - p0 > sub:
-                cuts.insert(1, p0 + sub)
-            if s1 and p1 - cuts[-2] > sub:
-                cuts.insert(len(cuts) - 1, p1 - sub)
-            cuts = np.array(cuts)
-            keep = np.concatenate(([True], np.diff(cuts) > 1e-12 * r_max))
-            cuts = cuts[keep]
-            cuts[-1] = p1
-            n = cuts.size - 1
-            for i in range(n):
-                kind = 1 if (s0 and i == 0) else (-1 if (s1 and i == n - 1) else 0)
-                panels.append((float(cuts[i]), float(cuts[i + 1]), kind))
+            pieces += [(t0, mid, True, False), (mid, t1, False, True)]
+        else:
+            pieces.append((t0, t1, lo_s, hi_s))
+    panels = []
+    for p0, p1, s0, s1 in pieces:
+        cuts, t = [p0], p0
+        while t < p1:
+            t = min(t + min(h, GRADING * max(zl, t)), p1)
+            cuts.append(t)
+        if s0 and cuts[1] - p0 > sub:
+            cuts.insert(1, p0 + sub)
+        if s1 and p1 - cuts[-2] > sub:
+            cuts.insert(len(cuts) - 1, p1 - sub)
+        cuts = np.array(cuts)
+        cuts = cuts[np.concatenate(([True], np.diff(cuts) > 1e-12 * r_max))]
+        cuts[-1] = p1
+        n = cuts.size - 1
+        for i in range(n):
+            kind = 1 if (s0 and i == 0) else (-1 if (s1 and i == n - 1) else 0)
+            panels.append((float(cuts[i]), float(cuts[i + 1]), kind))
     return panels
 
 
@@ -300,6 +305,14 @@ def radial_orders(panels, size, listener, kb, qa, tol):
         out.append((lo, hi, kind))
         orders.append(fewest_points(half, tol, p_min))
     return out, np.array(orders, dtype=np.int64)
+
+
+def radial_rule(size, listener, kb: float, qa: float, tol: float):
+    """The radial panels about ``listener`` and their first-rule orders
+    (:func:`radial_orders`) for bending wavenumbers up to ``kb`` and acoustic ones up to
+    ``qa`` (rad/m)."""
+    h = panel_length(kb + qa, tol)
+    return radial_orders(radial_panels(*size, listener, h), size, listener, kb, qa, tol)
 
 
 def radial_nodes(panels, orders):

@@ -38,28 +38,23 @@ def gains_key(modes, listener, s, settings, rule) -> str:
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
     (``settings`` the checked :class:`~.common.Settings`, ``rule`` the name of the rule's
     class, :mod:`~synth.sound.radiation.rules`)."""
-    kb, rho, c, r0 = settings.kb, settings.rho, settings.c, settings.r0
+
+    def hexed(value):
+        return None if value is None else float(value).hex()
+
+    poles = np.ascontiguousarray(s, dtype=np.complex128)
     return json.dumps(
         {
-            "rule": rule,
-            "polar_revision": POLAR_REVISION,
-            "version": _CACHE_VERSION,
-            "shapes": modes.shape_key,
-            "listener": [float(v).hex() for v in listener],
-            "poles": hashlib.sha256(
-                np.ascontiguousarray(s, dtype=np.complex128).tobytes()
-            ).hexdigest(),
-            "n_poles": int(s.size),
-            "max_wavenumber": float(kb).hex(),
-            "air_density": float(rho).hex(),
-            "sound_speed": float(c).hex(),
-            "reference_distance": None if r0 is None else float(r0).hex(),
-            "tol": float(settings.tol).hex(),
-            "max_points": int(settings.max_points),
+            "rule": rule, "polar_revision": POLAR_REVISION, "version": _CACHE_VERSION,
+            "shapes": modes.shape_key, "listener": [hexed(v) for v in listener],
+            "poles": hashlib.sha256(poles.tobytes()).hexdigest(), "n_poles": int(s.size),
+            "max_wavenumber": hexed(settings.kb), "air_density": hexed(settings.rho),
+            "sound_speed": hexed(settings.c), "reference_distance": hexed(settings.r0),
+            "tol": hexed(settings.tol), "max_points": int(settings.max_points),
             "quadrature": [MAX_ORDER, REFINE, MAX_RULES, GRADING, NEAR_RHO, COHERENT_FLOOR],
         },
         sort_keys=True,
-    )
+    )  # fmt: skip
 
 
 def _gains_path(key: str) -> Path:

@@ -79,12 +79,18 @@ class Settings:
         return dict(zip(names, values), tol=self.tol, max_points=self.max_points)
 
     def factors(self, q_s, r_mid):
-        """Per mode of poles ``q_s`` (rad/s): the gain's factor ``rho s / (2 pi) exp(-s (r_mid
-        - R0) / c)`` of the sums about ``r_mid`` (m), and the in-phase bound's ``rho |s| /
-        (2 pi)``."""
-        shift = r_mid - (0.0 if self.r0 is None else self.r0)
-        factor = self.rho * q_s / (2.0 * math.pi) * np.exp(-(q_s / self.c) * shift)
+        """Per mode of poles ``q_s`` (rad/s): :func:`pole_factor` about ``r_mid`` (m), and
+        the in-phase bound's ``rho |s| / (2 pi)``."""
+        factor = pole_factor(q_s, self.rho, self.c, r_mid, self.r0)
         return factor, self.rho * np.abs(q_s) / (2.0 * math.pi)
+
+
+def pole_factor(s, rho, c, r_mid, r0=None):
+    """The gains' factor ``rho s / (2 pi) exp(-s (r_mid - R0) / c)`` of sums taken about
+    ``r_mid`` (m), for poles ``s`` (rad/s), air density ``rho`` (kg/m^3), sound speed ``c``
+    (m/s) and reference distance ``R0`` (m, None: 0)."""
+    shift = r_mid - (0.0 if r0 is None else r0)
+    return rho * s / (2.0 * math.pi) * np.exp(-(s / c) * shift)
 
 
 def check_settings(
@@ -123,16 +129,9 @@ def check_listener(listener_position) -> tuple[float, float, float]:
 
 
 def check_size(size) -> tuple[float, float]:
-    try:
-        items = tuple(size)
-    except TypeError:
-        items = ()
-    if len(items) != 2:
-        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
-    return (
-        checks.positive("size.a", items[0], "metres"),
-        checks.positive("size.b", items[1], "metres"),
-    )
+    """The plate's ``size`` (a, b), m, both > 0."""
+    a, b = checks.point("size", size, 2)
+    return checks.positive("size.x", a, "metres"), checks.positive("size.y", b, "metres")
 
 
 def distance_range(size, listener) -> tuple[float, float]:
@@ -149,10 +148,7 @@ def distance_range(size, listener) -> tuple[float, float]:
 
 def nearest_distance(size, listener) -> float:
     """Distance (m) from ``listener`` (x, y, z) to the nearest point of the plate."""
-    a, b = size
-    xl, yl, z = listener
-    dx, dy = max(0.0, -xl, xl - a), max(0.0, -yl, yl - b)
-    return math.sqrt(dx * dx + dy * dy + z * z)
+    return distance_range(size, listener)[0]
 
 
 def check_finite(values, what: str, modes=None) -> None:
@@ -213,6 +209,12 @@ def half_phase(p: int, tol: float) -> float:
             first = start + int(bad[0])
             return float(omega[first - 1]) if first > 0 else float(omega[0])
     return float(omega[0])
+
+
+def panel_length(kappa: float, tol: float) -> float:
+    """Longest panel (m) whose ``MAX_ORDER`` points integrate ``exp(i kappa x)`` (``kappa``
+    rad/m) to ``tol``: ``2 w24 / kappa`` (infinite for ``kappa = 0``)."""
+    return 2.0 * half_phase(MAX_ORDER, tol) / kappa if kappa > 0 else math.inf
 
 
 def fewest_points(phase: float, tol: float, p_min: int) -> int:
@@ -404,13 +406,24 @@ def refine(rule, npoints, factor, scale, tol, max_points, panels, selective=Fals
     )
 
 
+def gains_of(result: RadiationResult, caller: str, tol: float, full_output: bool):
+    """``result`` if ``full_output``, else its gains, with :func:`warn_unconverged` if the
+    convergence test failed."""
+    if full_output:
+        return result
+    if not result.success:
+        warn_unconverged(caller, result, tol)
+    return result.gains
+
+
 def warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
-    """RuntimeWarning naming the mode furthest from the convergence test."""
+    """RuntimeWarning naming the mode furthest from the convergence test (at the caller of
+    the public function calling :func:`gains_of`)."""
     allowed = tol * np.maximum(np.abs(result.gains), COHERENT_FLOOR * result.coherent)
     worst = int(np.argmax(result.error / np.maximum(allowed, 1e-300)))
     warnings.warn(
         f"{caller}: {result.message} (mode {worst}: estimated error "
         f"{result.error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
         RuntimeWarning,
-        stacklevel=3,
+        stacklevel=4,
     )

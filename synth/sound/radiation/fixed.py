@@ -21,13 +21,13 @@ import numpy as np
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError, SynthError
 from synth.sound.radiation.common import (
-    MAX_ORDER,
     Poles,
     add_sums,
     check_listener,
     distance_range,
     exp_halvings,
-    half_phase,
+    panel_length,
+    pole_factor,
 )
 from synth.sound.radiation.rectangle import panel_nodes, panel_orders
 
@@ -146,9 +146,8 @@ class ListenerGrid:
             with ThreadPoolExecutor(max_workers=len(self._shares)) as pool:
                 for job in [pool.submit(add, share) for share in self._shares]:
                     job.result()
-        shift = r_mid - (0.0 if reference_distance is None else float(reference_distance))
-        factor = self._rho * self._s / (2.0 * math.pi) * np.exp(-q * shift)
-        gains = factor * (acc[0] + 1j * acc[1])
+        r0 = None if reference_distance is None else float(reference_distance)
+        gains = pole_factor(self._s, self._rho, self._c, r_mid, r0) * (acc[0] + 1j * acc[1])
         gains.setflags(write=False)
         if len(self._kept) >= KEPT_MICROPHONES:
             self._kept.pop(next(iter(self._kept)), None)
@@ -204,7 +203,6 @@ def _axis(length: float, kappa: float, height: float, tol: float):
     """Nodes and weights along one side (``length`` m) of a band's grid: equal panels at
     most ``min(2 w24 / kappa, height)`` long with the rectangle rule's first-rule orders."""
     tol_panel = 0.1 * tol
-    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
-    n = max(1, math.ceil(length / min(h, height)))
+    n = max(1, math.ceil(length / min(panel_length(kappa, tol_panel), height)))
     ends = np.linspace(0.0, length, n + 1)
     return panel_nodes(ends, panel_orders(ends, kappa, tol_panel))

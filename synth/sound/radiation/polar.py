@@ -29,17 +29,15 @@ from synth.sound.radiation.angular import (
     POLAR_PANEL_TOL,
     angular_rule,
     arc_panels,
-    circle_arcs,
     panels_points,
     radial_nodes,
-    radial_orders,
-    radial_panels,
+    radial_rule,
     radial_segments,
+    shorter_arcs,
 )
 from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
 from synth.sound.radiation.common import (
     CHUNK_BYTES,
-    MAX_ORDER,
     REFINE,
     Poles,
     RadiationResult,
@@ -50,9 +48,8 @@ from synth.sound.radiation.common import (
     check_poles,
     check_settings,
     exp_halvings,
-    half_phase,
+    gains_of,
     refine,
-    warn_unconverged,
 )
 from synth.sound.radiation.rectangle import apply_rule, in_phase_grid
 
@@ -139,11 +136,8 @@ def _circle_points(radii, size, listener, kb, tol, refine) -> _Circles:
     whole = np.zeros(radii.size)
     panels, counts = [], np.zeros(radii.size, dtype=np.int64)
     for i, r in enumerate(radii):
-        on, off = circle_arcs(float(r), a, b, xl, yl)
-        if sum(hi - lo for lo, hi in off) < sum(hi - lo for lo, hi in on):
-            whole[i], arcs = 1.0, off
-        else:
-            arcs = on
+        off, arcs = shorter_arcs(float(r), a, b, xl, yl)
+        whole[i] = float(off)
         these = arc_panels(float(r), kb, tol, refine, arcs)
         counts[i] = sum(n * p for _, _, n, p in these)
         panels += these
@@ -310,64 +304,42 @@ def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarS
     tol_panel = POLAR_PANEL_TOL * checked.tol
     if q.size == 0:
         return _PolarSetup(size, listener, q_s, checked, q, tol_panel, [], None, 0.0, 0)
-    kb = checked.kb
-    kappa = kb + float(np.max(np.abs(q)))
-    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
+    panels, orders = radial_rule(size, listener, checked.kb, float(np.max(np.abs(q))), tol_panel)
     (a, b), (xl, yl, zl) = size, listener
-    panels, orders = radial_orders(
-        radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
-    )
     r_min, r_max, _, _ = radial_segments(a, b, xl, yl)
     big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
     r_mid, halvings = 0.5 * (big_min + big_max), exp_halvings(q, 0.5 * (big_max - big_min))
     return _PolarSetup(size, listener, q_s, checked, q, tol_panel, panels, orders, r_mid, halvings)
 
 
-@dataclass(frozen=True)
-class _PolarKind:
-    """A polar rule's parts: ``in_phase(shapes, setup)`` the modes' in-phase integrals,
-    ``apply`` its sums (as :func:`_apply_separable_rule`), ``caller`` its public name."""
-
-    in_phase: object
-    apply: object
-    caller: str
-
-
-def _polar_gains(kind: _PolarKind, shapes, n_modes, listener_position, s, settings, full_output):
-    """The gains (a :class:`RadiationResult` if ``full_output``) of ``shapes`` by the polar
-    rule ``kind``, each mode refined alone."""
-    in_phase, apply, caller = kind.in_phase, kind.apply, kind.caller
-    size = (shapes.length, shapes.width)
-    setup = _polar_setup(size, n_modes, listener_position, s, settings)
+def _polar_gains(in_phase, apply, shapes, n_modes, listener_position, s, settings):
+    """The :class:`RadiationResult` of ``shapes`` by a polar rule, each mode refined alone:
+    ``in_phase(shapes, setup)`` the modes' in-phase integrals, ``apply`` its sums (as
+    :func:`_apply_separable_rule`); and the checked tolerance."""
+    setup = _polar_setup((shapes.length, shapes.width), n_modes, listener_position, s, settings)
     checked = setup.settings
     if setup.q.size == 0:
-        result = RadiationResult.no_modes()
-    else:
-        mag = in_phase(shapes, setup)
-        counts = {}
+        return RadiationResult.no_modes(), checked.tol
+    mag = in_phase(shapes, setup)
+    counts = {}
 
-        def rule(level, active):
-            f = REFINE**level
-            radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-            total, n = apply(shapes, setup, radii, wr, f, active)
-            counts.setdefault(level, n)
-            return total, mag[active]
+    def rule(level, active):
+        f = REFINE**level
+        radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
+        total, n = apply(shapes, setup, radii, wr, f, active)
+        counts.setdefault(level, n)
+        return total, mag[active]
 
-        def npoints(level):
-            if level in counts:
-                return counts[level]
-            known = max(counts)  # not yet applied: points grow as 1.25^2 per level
-            return int(counts[known] * REFINE ** (2 * (level - known)))
+    def npoints(level):
+        if level in counts:
+            return counts[level]
+        known = max(counts)  # not yet applied: points grow as 1.25^2 per level
+        return int(counts[known] * REFINE ** (2 * (level - known)))
 
-        factor, scale = checked.factors(setup.q_s, setup.r_mid)
-        panels = (len(setup.panels), 0)
-        result = refine(rule, npoints, factor, scale, checked.tol, checked.max_points, panels, True)
-        result = dataclasses.replace(result, rule="polar")
-    if full_output:
-        return result
-    if not result.success:
-        warn_unconverged(caller, result, checked.tol)
-    return result.gains
+    factor, scale = checked.factors(setup.q_s, setup.r_mid)
+    panels = (len(setup.panels), 0)
+    result = refine(rule, npoints, factor, scale, checked.tol, checked.max_points, panels, True)
+    return dataclasses.replace(result, rule="polar"), checked.tol
 
 
 def separable_gains(shapes, listener_position, s, *, full_output=False, **settings):
@@ -380,15 +352,9 @@ def separable_gains(shapes, listener_position, s, *, full_output=False, **settin
 
     if not isinstance(shapes, SeparableShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
-    return _polar_gains(
-        _PolarKind(_separable_in_phase, _apply_separable_rule, "separable_gains"),
-        shapes,
-        shapes.x_index.size,
-        listener_position,
-        s,
-        settings,
-        full_output,
-    )
+    result, tol = _polar_gains(_separable_in_phase, _apply_separable_rule, shapes,
+                               shapes.x_index.size, listener_position, s, settings)  # fmt: skip
+    return gains_of(result, "separable_gains", tol, full_output)
 
 
 def summed_gains(shapes, listener_position, s, *, full_output=False, **settings):
@@ -399,12 +365,6 @@ def summed_gains(shapes, listener_position, s, *, full_output=False, **settings)
 
     if not isinstance(shapes, SummedShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
-    return _polar_gains(
-        _PolarKind(_summed_in_phase, _apply_summed_rule, "summed_gains"),
-        shapes,
-        shapes.n_modes,
-        listener_position,
-        s,
-        settings,
-        full_output,
-    )
+    result, tol = _polar_gains(_summed_in_phase, _apply_summed_rule, shapes, shapes.n_modes,
+                               listener_position, s, settings)  # fmt: skip
+    return gains_of(result, "summed_gains", tol, full_output)

@@ -23,7 +23,6 @@ from synth.errors import ParameterError
 from synth.sound.radiation.common import (
     CHUNK_BYTES,
     GRADING,
-    MAX_ORDER,
     REFINE,
     Poles,
     RadiationResult,
@@ -37,11 +36,11 @@ from synth.sound.radiation.common import (
     distance_range,
     exp_halvings,
     fewest_points,
+    gains_of,
     gauss,
-    half_phase,
     min_order,
+    panel_length,
     refine,
-    warn_unconverged,
 )
 
 #: Shortest panel, relative to the plate's side: a shorter one is a rounding artefact of
@@ -140,7 +139,7 @@ def apply_rule(shape_fn, grid: Grid, listener, r_mid, poles: Poles, chunk):
             ix, iy = np.divmod(np.arange(start, min(start + chunk, n_total)), ny)
             n = ix.size
             pts = np.column_stack((xs[ix], ys[iy]))
-            phi = _check_shapes(shape_fn(pts), n, m)
+            phi = _real_table(shape_fn(pts), n, m, "shape_fn", "points")
             r = np.sqrt((pts[:, 0] - xl) ** 2 + (pts[:, 1] - yl) ** 2 + zl * zl)
             wr = wx[ix] * wy[iy] / r
             dist = r - r_mid
@@ -228,11 +227,10 @@ def apply_product_rule(factor_fn, grid: Grid, listener, r_mid, poles: Poles):
     xs, wx, ys, wy = grid
     f = factor_fn(xs, ys)
     m = poles.qr.size
-    fx = _factor_table(f.x_own, xs.size, m)
-    fy = _factor_table(f.y_own, ys.size, m)
     paired = f.x_other is not None
-    gx = _factor_table(f.x_other, xs.size, m) if paired else fx
-    gy = _factor_table(f.y_other, ys.size, m) if paired else fy
+    x_other, y_other = (f.x_other, f.y_other) if paired else (f.x_own, f.y_own)
+    fx, gx = (_real_table(t, xs.size, m, "factor_fn", "nodes") for t in (f.x_own, x_other))
+    fy, gy = (_real_table(t, ys.size, m, "factor_fn", "nodes") for t in (f.y_own, y_other))
     workers = max(1, min(numba.get_num_threads(), xs.size))
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
     args = (xs, wx, ys, wy, np.asarray(listener, dtype=float), r_mid, fx, fy, gx, gy, paired)
@@ -250,31 +248,19 @@ def apply_product_rule(factor_fn, grid: Grid, listener, r_mid, poles: Poles):
     return acc_re + 1j * acc_im, mag
 
 
-def _factor_table(table, n, m):
-    """A factor table of :class:`ProductFactors` as a C-ordered float array ``(n, m)``."""
-    arr = np.asarray(table)
-    if arr.shape != (n, m) or np.iscomplexobj(arr):
-        raise ParameterError(
-            f"factor_fn returned a factor table of shape {arr.shape} and dtype {arr.dtype}; "
-            f"expected real values of shape ({n}, {m}) (nodes, modes)"
-        )
-    return np.ascontiguousarray(arr, dtype=np.float64)
-
-
-def _check_shapes(phi, n, m):
+def _real_table(values, n, m, fn, rows):
+    """``values`` returned by ``fn`` as a C-ordered float array ``(n, m)`` (``rows``, modes),
+    or a ParameterError naming its shape and dtype."""
     try:
-        arr = np.asarray(phi)
-    except Exception:  # noqa: BLE001
-        raise ParameterError("shape_fn must return an array of mode shape values") from None
-    if arr.shape != (n, m):
+        arr = np.asarray(values)
+    except Exception:  # noqa: BLE001 - anything numpy cannot read is bad output
+        raise ParameterError(f"{fn} must return an array of real values") from None
+    number = np.issubdtype(arr.dtype, np.number) and arr.dtype != bool
+    if arr.shape != (n, m) or not number or np.iscomplexobj(arr):
         raise ParameterError(
-            f"shape_fn returned shape {arr.shape} for {n} points; expected ({n}, {m}) "
-            f"(points, modes), one column per pole in s"
+            f"{fn} returned shape {arr.shape} and dtype {arr.dtype}; expected real values of "
+            f"shape ({n}, {m}) ({rows}, modes), one column per pole in s"
         )
-    if np.iscomplexobj(arr):
-        raise ParameterError("shape_fn must return real mode shape values, got complex")
-    if not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
-        raise ParameterError(f"shape_fn must return real numbers, got dtype {arr.dtype}")
     return np.ascontiguousarray(arr, dtype=np.float64)
 
 
@@ -304,11 +290,7 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, full_output=False, *
         return apply_rule(shape_fn, grid, listener, r_mid, poles, chunk)
 
     result = _rule_result(evaluate, size, listener_position, s, settings)
-    if full_output:
-        return result
-    if not result.success:
-        warn_unconverged("rayleigh_gains", result, check_settings(**settings).tol)
-    return result.gains
+    return gains_of(result, "rayleigh_gains", check_settings(**settings).tol, full_output)
 
 
 def product_gains(factor_fn, size, listener_position, s, **settings) -> RadiationResult:
@@ -344,13 +326,12 @@ def _rule_result(evaluate, size, listener_position, s, settings: dict, local_pha
     kappa = kb + float(np.max(np.abs(q)))
     zl = listener[2]
     tol_panel = 0.1 * tol
-    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
-    p_min = min_order(tol_panel)
-    if (a / h) * (b / h) * p_min * p_min > max_points:  # before building the panels
+    h = panel_length(kappa, tol_panel)
+    fewest = (a / h) * (b / h) * min_order(tol_panel) ** 2
+    if fewest > max_points:  # before building the panels
         raise ParameterError(
             f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m and "
-            f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than "
-            f"{(a / h) * (b / h) * p_min * p_min:.3g} points"
+            f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than {fewest:.3g} points"
         )
     ex, ey, px0, py0 = first_rule(
         a, b, listener, kappa, tol_panel, kappa - kb if local_phase else None
@@ -394,7 +375,7 @@ def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
     ``d`` the distance from the microphone's projection to the panel's far end (the same
     along y). The panels themselves are those of ``kappa``."""
     xl, yl, zl = listener
-    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
+    h = panel_length(kappa, tol_panel)
     out = []
     for length, centre in ((a, xl), (b, yl)):
         ends = _breakpoints(length, centre, zl, h)

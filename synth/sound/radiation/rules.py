@@ -12,7 +12,6 @@ cut do not depend on the machine (``synth bench rules`` prints each rule's cost 
 
 from __future__ import annotations
 
-import abc
 import dataclasses
 import functools
 import json
@@ -26,10 +25,10 @@ from synth.sound.radiation.angular import (
     arc_panels,
     circle_arcs,
     radial_nodes,
-    radial_orders,
-    radial_panels,
+    radial_rule,
+    shorter_arcs,
 )
-from synth.sound.radiation.common import MAX_ORDER, MAX_RULES, REFINE, RadiationResult, half_phase
+from synth.sound.radiation.common import MAX_RULES, REFINE, RadiationResult
 from synth.sound.radiation.polar import separable_gains, summed_gains
 from synth.sound.radiation.rectangle import (
     ProductFactors,
@@ -107,22 +106,15 @@ def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
 def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[int, int]]:
     """Per rule: (radii, angular points) of the polar rules; at each radius the arcs on the
     plate (the summed rule), or with ``shorter`` the shorter of those on and off it."""
-    a, b = size
-    xl, yl, _ = listener
-    kappa = kb + qa
-    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa
-    panels, orders = radial_orders(
-        radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
-    )
+    edges = (*size, listener[0], listener[1])
+    panels, orders = radial_rule(size, listener, kb, qa, tol_panel)
     out = []
     for f in _levels():
         radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
         angular = 0
-        for r in radii:
-            on, off = circle_arcs(float(r), a, b, xl, yl)
-            if shorter and sum(v - u for u, v in off) < sum(v - u for u, v in on):
-                on = off
-            angular += sum(n * p for _, _, n, p in arc_panels(float(r), kb, tol_panel, f, on))
+        for r in map(float, radii):
+            arcs = shorter_arcs(r, *edges)[1] if shorter else circle_arcs(r, *edges)[0]
+            angular += sum(n * p for _, _, n, p in arc_panels(r, kb, tol_panel, f, arcs))
         out.append((radii.size, angular))
     return out
 
@@ -214,8 +206,11 @@ class Estimate:
         return self.tol if self.fits else math.inf
 
 
-class Rule(abc.ABC):
-    """One rule of the Rayleigh integral: the shapes it takes, its counts and gains."""
+class Rule:
+    """One rule of the Rayleigh integral: the ``shapes`` it takes, its ``counts(problem)``
+    (:class:`RuleWork` of each refinement) and ``gains(modes, listener, s, settings)`` (of a
+    :class:`synth.physics.modes.Modes` at ``listener`` for the poles ``s``, rad/s, ``settings``
+    the keywords of :func:`~.rectangle.rayleigh_gains`)."""
 
     name = ""
     shapes: tuple = ()
@@ -223,20 +218,11 @@ class Rule(abc.ABC):
     def applies(self, problem: Problem) -> bool:
         return problem.shapes in self.shapes and problem.modes > 0
 
-    @abc.abstractmethod
-    def counts(self, problem: Problem) -> RuleWork:
-        """Points and terms of each of the rule's refinements."""
-
     def estimate(self, problem: Problem) -> Estimate:
         counts = self.counts(problem)
         weighted = weighted_counts(counts)
         cost = weighted.fixed + sum(weighted.work[:2])
         return Estimate(self, counts, counts.points[1] <= problem.max_points, cost, problem.tol)
-
-    @abc.abstractmethod
-    def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
-        """The gains of ``modes`` (:class:`synth.physics.modes.Modes`) at ``listener`` for
-        the poles ``s`` (rad/s), ``settings`` the keywords of :func:`~.rectangle.rayleigh_gains`."""
 
 
 class RectangleRule(Rule):
@@ -259,28 +245,22 @@ class PolarRule(Rule):
     ``X_i(x) Y_j(y)``; the angular sums are shared by all modes, the radial sums cost per
     mode an exponential and a ``J_0``."""
 
-    name = "polar"
-    shapes = ("separable",)
+    name, shapes, summed = "polar", ("separable",), False
 
     def counts(self, p):
-        return polar_work(p, summed=False)
+        return polar_work(p, summed=self.summed)
 
     def gains(self, modes, listener, s, settings):
+        if self.summed:
+            return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
         return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
 
 
-class SummedRule(Rule):
+class SummedRule(PolarRule):
     """The polar rule for sums of products (:func:`~.polar.summed_gains`): per radius and
     mode the combination of its Ritz coefficients."""
 
-    name = "summed"
-    shapes = ("summed",)
-
-    def counts(self, p):
-        return polar_work(p, summed=True)
-
-    def gains(self, modes, listener, s, settings):
-        return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
+    name, shapes, summed = "summed", ("summed",), True
 
 
 class BandedRule(Rule):
@@ -308,16 +288,26 @@ class BandedRule(Rule):
         return RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
+        """The edge effect modes band by band of wavenumber (:data:`BAND_RATIO`), each band's
+        rule for its own fastest mode (each mode passes the same convergence test as on one
+        rule for every mode), and the Ritz modes below on one rule."""
         n_low = modes.edge_effect().first_mode
-        high = _banded_rectangle(modes, n_low, listener, s, settings)
-        if n_low == 0:
-            return high
-        low = _band_rectangle(modes, 0, n_low, listener, s, settings)
+        qa = np.abs(s[n_low:]) / settings["sound_speed"]
+        bands = mode_bands(modes.angular_frequencies[n_low:], settings["max_wavenumber"], qa)
+        parts = [_band_rectangle(modes, n_low + lo, n_low + hi, listener, s, settings)
+                 for lo, hi in bands]  # fmt: skip
+        failed = sum(not p.success for p in parts)
         message = (
-            f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
-            f"{len(modes) - 1} (banded rule): {high.message}"
+            f"{len(parts)} bands of wavenumber, {failed} not converged; the largest rule "
+            f"{max(parts, key=lambda p: p.n_points).message}"
         )
-        return combined((low, high), message)
+        if n_low:
+            parts.insert(0, _band_rectangle(modes, 0, n_low, listener, s, settings))
+            message = (
+                f"Ritz modes 0-{n_low - 1}: {parts[0].message}; edge effect modes {n_low}-"
+                f"{len(modes) - 1} (banded rule): {message}"
+            )
+        return combined(parts, message)
 
 
 #: The rules :func:`choose_rule` chooses among.
@@ -381,25 +371,6 @@ def _band_rectangle(modes, start, stop, listener, s, settings):
         return product_gains(factors, size, listener, s[start:stop], **settings)
     shapes = lambda points: modes.shapes(points, index=index)  # noqa: E731
     return rayleigh_gains(shapes, size, listener, s[start:stop], full_output=True, **settings)
-
-
-def _banded_rectangle(modes, n_low, listener, s, settings):
-    """The rectangle rule of the edge effect modes ``n_low`` onwards, band by band of
-    wavenumber (:data:`BAND_RATIO`), each band's rule for its own fastest mode; each mode
-    passes the same convergence test as on one rule for every mode."""
-    omega = modes.angular_frequencies[n_low:]
-    qa = np.abs(s[n_low:]) / settings["sound_speed"]
-    parts = [
-        _band_rectangle(modes, n_low + lo, n_low + hi, listener, s, settings)
-        for lo, hi in mode_bands(omega, settings["max_wavenumber"], qa)
-    ]
-    failed = sum(not p.success for p in parts)
-    largest = max(parts, key=lambda p: p.n_points)
-    message = (
-        f"{len(parts)} bands of wavenumber, {failed} not converged; the largest rule "
-        f"{largest.message}"
-    )
-    return combined(parts, message)
 
 
 def combined(parts, message: str) -> RadiationResult:
