@@ -256,7 +256,7 @@ def test_a_slot_being_filled_is_neither_played_nor_dropped():
     # and stop_all (which drops READY slots) leaves it alone, so no other producer can
     # take it while it is written
     from synth.live.kernel import FREE
-    from synth.live.queue import WRITING, PendingRing
+    from synth.live.voice import WRITING, PendingRing
 
     ring = PendingRing(2, 3, 4, 5, 2)
     i = ring.reserve()
@@ -275,7 +275,7 @@ def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
     # max_new wait at a time (a bound on any block's work); a transform or stop_all's
     # dropping of a pulse frees its place. Without a deadline (bounded=False) the ring
     # alone bounds them.
-    from synth.live.queue import PendingRing
+    from synth.live.voice import PendingRing
 
     ring = PendingRing(8, 3, 4, 7, 3)
     slots = [ring.reserve(pulse=True) for _ in range(4)]

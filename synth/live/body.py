@@ -12,34 +12,16 @@ import numpy as np
 from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
-from synth.live import heard as hd
 from synth.live import kernel, native, rolling
 from synth.live import state as st
-from synth.live.atomics import fence
-from synth.live.queue import PendingRing
+from synth.live import voice as vc
+from synth.live.kernel import fence
 from synth.live.state import BodySettings
-from synth.live.voice import (
-    HIT_RTOL,
-    MAX_GAIN,
-    MAX_SPEED,
-    Trigger,
-    Voice,
-    check_height,
-    check_priority,
-    closed,
-    stop_frames,
-    stop_records,
-    trigger,
-)
+from synth.live.voice import PendingRing, Trigger, Voice
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
-from synth.sound.modal_bank import (
-    bank_coefficients,
-    impact_excitation,
-    pulse_layout,
-    samples_in_contact,
-)
+from synth.sound import modal_bank as mb
 from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
 from synth.sound.render import LISTENER_UNITS
 from synth.store.audio import PHYSICAL_FULL_SCALE
@@ -89,14 +71,10 @@ class Body:
     each a modal state that one :class:`Voice` (a hit or a drop) excites."""
 
     def __init__(self, engine: Engine, plate: Plate, listener, model, settings: BodySettings):
-        self._engine = engine
-        self.max_voices = settings.voices
-        self._min_interval = 0.0
+        self._engine, self.plate, self.listener, self._model = engine, plate, listener, model
+        self.max_voices, self._min_interval = settings.voices, 0.0
         self._last_onsets: dict = {}  # onset (s) of the last hit at each point (1 mm grid)
         self._ears = [self]  # the bodies a hit plays on: this one, and the other ears
-        self.plate = plate
-        self.listener = listener
-        self._model = model
         fs = engine.samplerate
         self._scale = 1.0 / PHYSICAL_FULL_SCALE[model.units]
         self._prepared: dict = {}
@@ -104,10 +82,10 @@ class Body:
         self._solvers: dict = {}
         self._grid = None  # the plate's fixed radiation grids, once a listener moved
         coefficients = self._prepare(plate.centre).coefficients
-        grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
+        grid = mb.pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
         self._ring = PendingRing(
-            engine.max_pending, model.poles.size, samples_in_contact(MAX_CONTACT, fs),
-            min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
+            engine.max_pending, model.poles.size, mb.samples_in_contact(MAX_CONTACT, fs),
+            min(grid.points, MAX_SLOT_GRID) + mb.samples_in_contact(SLOT_CONTACT, fs),
             engine.max_hits_per_block, voices=engine.max_pending + settings.voices,
         )  # fmt: skip
         self._warm_up()
@@ -124,15 +102,16 @@ class Body:
         self._heard, self._heard_seq = arrays["heard"], arrays["heard_seq"]
         self._counters, self._slots = arrays["counters"], arrays["voice_slots"]
         self._scalars = arrays["scalars"]
-        self._removed = False  # remove() called: hits and drops refused
-        self._freed = False  # its arrays let go (see Engine._reap)
+        # remove() called: hits and drops refused; its arrays let go (see Engine._reap)
+        self._removed = self._freed = False
 
     def _warm_up(self):
         """Run the hit path once (numba compiles or loads it), so the first hit is fast."""
-        ball = Ball(self.plate.material, WARM_UP_BALL_RADIUS)
-        solver = ContactSolver.for_pair(ball, self.plate, rtol=HIT_RTOL)
+        solver = ContactSolver.for_pair(
+            Ball(self.plate.material, WARM_UP_BALL_RADIUS), self.plate, rtol=vc.HIT_RTOL
+        )
         result = solver.solve(1.0, position=self.plate.centre)
-        impact_excitation(self._prepare(self.plate.centre).coefficients, result, 0.0)
+        mb.impact_excitation(self._prepare(self.plate.centre).coefficients, result, 0.0)
 
     def __repr__(self):
         return (
@@ -147,7 +126,7 @@ class Body:
 
     @gain.setter
     def gain(self, value: float) -> None:
-        g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
+        g = checks.positive_at_most("gain", value, vc.MAX_GAIN, "dimensionless")
         for ear in self._ears:
             ear._scalars[st.S_GAIN] = g
 
@@ -170,7 +149,7 @@ class Body:
 
     @min_interval.setter
     def min_interval(self, value: float) -> None:
-        self._min_interval = closed("min_interval", value, 0.0, 1.0, "s")
+        self._min_interval = vc.closed("min_interval", value, 0.0, 1.0, "s")
 
     def _too_close(self, position, onset: float) -> bool:
         """Whether a hit at ``position`` at ``onset`` s is within ``min_interval`` of the last."""
@@ -233,9 +212,8 @@ class Body:
         model = self._model
         plate = self._plate_coefficients.get(position)
         if plate is None:
-            excitation = model.excitation(position)
-            ones = np.ones(model.poles.size)
-            c = bank_coefficients(model.poles, excitation, ones, self._engine.samplerate)
+            excitation, ones = model.excitation(position), np.ones(model.poles.size)
+            c = mb.bank_coefficients(model.poles, excitation, ones, self._engine.samplerate)
             plate = _keep(self._plate_coefficients, position, (excitation, c))
         excitation, c = plate
         coef = (c.coef_re + 1j * c.coef_im) * model.output
@@ -287,17 +265,13 @@ class Body:
         """Write the new gains under a sequence lock (odd while written; the mixing takes them
         whole at a block's start)."""
         with self._move_lock:
-            self._model = model
-            self._prepared = {}
-            gains = np.asarray(model.output, dtype=complex)
-            seq = self._heard_seq
-            seq[hd.SEQ_PUT] += 1
+            self._model, self._prepared, self.listener = model, {}, listener
+            gains, seq = np.asarray(model.output, dtype=complex), self._heard_seq
+            seq[kernel.SEQ_PUT] += 1
             fence()
-            self._heard[hd.HPR] = gains.real
-            self._heard[hd.HPI] = gains.imag
+            self._heard[kernel.HPR], self._heard[kernel.HPI] = gains.real, gains.imag
             fence()
-            seq[hd.SEQ_PUT] += 1
-            self.listener = listener
+            seq[kernel.SEQ_PUT] += 1
 
     def prepare(self, *positions) -> None:
         """Evaluate the mode shapes at points (``(x, y)``, m) ahead of hits there."""
@@ -306,7 +280,7 @@ class Body:
             self._prepare(self.plate.check_position(p, "position"))
 
     def _check_length(self, contact_time: float) -> None:
-        if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
+        if mb.samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
             raise ParameterError(
                 f"the contact lasts {contact_time:.4g} s, longer than the {MAX_CONTACT} s "
                 f"a live body takes (a heavy ball on a light plate, or a soft contact): "
@@ -316,8 +290,7 @@ class Body:
     def _submit(self, impact: _Impact, prepared: _Prepared, voice: int, slot=None) -> bool:
         """Hand ``impact`` of voice record ``voice`` over, its excitation computed here into
         ``slot`` (reserved by the caller, or here)."""
-        ring, result = self._ring, impact.result
-        self._check_length(result.separation_time)
+        ring, result = self._ring, impact.result  # its length checked by the caller
         own = slot is None  # else the caller gives it back on failure
         if own:
             slot = ring.reserve(voice=voice)
@@ -326,10 +299,10 @@ class Body:
         try:
             # the plate's amplitudes for the voice's state; the response and peak heard
             options = dict(weight=impact.weight, pulse_points=self._engine.pulse_points)
-            impact_excitation(prepared.plate, result, impact.onset,
-                              amplitudes=ring.amplitudes[slot], **options)  # fmt: skip
-            ex = impact_excitation(prepared.coefficients, result, impact.onset,
-                                   response=ring.response[slot], **options)  # fmt: skip
+            mb.impact_excitation(prepared.plate, result, impact.onset,
+                                 amplitudes=ring.amplitudes[slot], **options)  # fmt: skip
+            ex = mb.impact_excitation(prepared.coefficients, result, impact.onset,
+                                      response=ring.response[slot], **options)  # fmt: skip
         except BaseException:
             if own:
                 ring.release(slot)
@@ -350,7 +323,7 @@ class Body:
         self._check_length(result.separation_time)
         c = prepared.coefficients
         fs = c.samplerate
-        lay = pulse_layout(
+        lay = mb.pulse_layout(
             result.separation_time, impact.onset, c.omega_max, fs, self._engine.pulse_points
         )
         n, M = lay.points, lay.samples
@@ -378,16 +351,17 @@ class Body:
         solver = self._solvers.get(key)
         if solver is None:
             solver = ContactSolver.for_pair(tr.ball, self.plate, gravity=tr.gravity,
-                                            law=tr.law.law, rtol=HIT_RTOL,
+                                            law=tr.law.law, rtol=vc.HIT_RTOL,
                                             **tr.law.options())  # fmt: skip
             _keep(self._solvers, key, solver)
         return solver
 
-    def _trigger(self, ball, position, gain, contact, gravity, at) -> Trigger:
+    def _trigger(self, ball, position, gain, contact, gravity, at, priority) -> Trigger:
         """The arguments :meth:`hit` and :meth:`drop` share, checked."""
         if self._removed:
             raise SynthError("this body was removed from its engine (Body.remove): add it again")
-        return trigger(self.plate, ball, position, gain, contact, gravity, self._engine._onset(at))
+        onset = self._engine._onset(at)
+        return vc.trigger(self.plate, ball, position, gain, contact, gravity, onset, priority)
 
     def hit(
         self,
@@ -406,9 +380,8 @@ class Body:
         starting at ``at`` (s, the engine's clock; default one block plus the latency from now).
         ``contact``: the law (default the ball's); ``gravity`` m/s^2; ``priority`` in [0, 255].
         Returns its :class:`Voice`, or None if refused (counted in :attr:`Engine.stats`)."""
-        v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
-        p = check_priority(priority)
-        tr = self._trigger(ball, position, gain, contact, gravity, at)
+        v = checks.positive_at_most("speed", speed, vc.MAX_SPEED, "m/s")
+        tr = self._trigger(ball, position, gain, contact, gravity, at, priority)
         if self._too_close(tr.position, tr.onset):
             return None
         result = self._solver(tr).solve(v, position=tr.position)
@@ -416,13 +389,12 @@ class Body:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
-        return self._new_voice(p, lambda vid: self._hand_over_voice(result, tr, vid, p))
+        return self._new_voice(tr, lambda vid: self._hand_over_voice(result, tr, vid))
 
-    def _new_voice(self, priority: int, hand_over) -> Voice | None:
+    def _new_voice(self, tr: Trigger, hand_over) -> Voice | None:
         """The Voice ``hand_over(vid)`` makes of a new id the voice limit admits, or None."""
-        vid = self._engine._next_voice_id()
-        limit = self._engine._voice_limit
-        if not limit.admit(vid, priority):
+        vid, limit = self._engine._next_voice_id(), self._engine._voice_limit
+        if not limit.admit(vid, tr.priority):
             return None
         voice = None
         try:
@@ -431,11 +403,11 @@ class Body:
             limit.settle(vid, voice)
         return voice
 
-    def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> Voice | None:
+    def _hand_over_voice(self, result, tr: Trigger, vid: int) -> Voice | None:
         """Hand a solved hit over at every ear as voice ``vid``, or at none (None)."""
         records: list[int] = []
         for ear in self._ears:
-            r = ear._ring.open_voice(vid, 1, priority)
+            r = ear._ring.open_voice(vid, 1, tr.priority)
             if r < 0:
                 break
             try:
@@ -443,16 +415,16 @@ class Body:
                 accepted = ear._hand_over(impact, ear._prepare(tr.position), r)
             except BaseException:
                 ear._ring.close_voice(r, 1)
-                stop_records(self._ears, records, vid)
+                vc.stop_records(self._ears, records, vid)
                 raise
             if not accepted:
                 ear._ring.close_voice(r, 1)
                 break
             records.append(r)
         if len(records) < len(self._ears):  # refused at one ear: at every ear
-            stop_records(self._ears, records, vid)
+            vc.stop_records(self._ears, records, vid)
             return None
-        return Voice(self, vid, records, (tr.onset,), priority)
+        return Voice(self, vid, records, (tr.onset,), tr.priority)
 
     def drop(
         self,
@@ -470,9 +442,8 @@ class Body:
         (:func:`synth.simulate_bounces`), the other arguments as :meth:`hit`'s. Returns one
         :class:`Voice` (``voice.onsets``, s), or None when the ring lacks free slots
         (``drops_refused``); more impacts than ``max_pending`` raise ParameterError."""
-        h = check_height(height)
-        p = check_priority(priority)
-        tr = self._trigger(ball, position, gain, contact, gravity, at)
+        h = vc.check_height(height)
+        tr = self._trigger(ball, position, gain, contact, gravity, at, priority)
         law = tr.law
         sequence = simulate_bounces(tr.ball, self.plate, drop_height=h, position=tr.position,
                                     gravity=tr.gravity, contact_law=law.law, rtol=law.rtol,
@@ -485,15 +456,14 @@ class Body:
             )
         for imp in sequence:
             self._check_length(imp.result.separation_time)
-        return self._new_voice(p, lambda vid: self._hand_over_drop(sequence, tr, vid, p))
+        return self._new_voice(tr, lambda vid: self._hand_over_drop(sequence, tr, vid))
 
-    def _hand_over_drop(self, sequence, tr: Trigger, vid: int, priority: int) -> Voice | None:
+    def _hand_over_drop(self, sequence, tr: Trigger, vid: int) -> Voice | None:
         """Hand a drop's impacts over at every ear as voice ``vid``, all or none."""
-        ball, pos, g, gravity, onset0 = tr.ball, tr.position, tr.gain, tr.gravity, tr.onset
         n = len(sequence)
         reserved = []  # (ear, voice record, slots not yet handed over)
         for ear in self._ears:
-            r = ear._ring.open_voice(vid, n, priority)
+            r = ear._ring.open_voice(vid, n, tr.priority)
             slots = ear._ring.reserve_many(n, voice=r) if r >= 0 else None
             if slots is None:
                 if r >= 0:
@@ -503,20 +473,21 @@ class Body:
                 return None
             reserved.append((ear, r, list(slots)))
         t0 = sequence[0].time if n else 0.0
-        onsets = tuple(onset0 + (imp.time - t0) for imp in sequence)
+        onsets = tuple(tr.onset + (imp.time - t0) for imp in sequence)
         try:
             for ear, r, slots in reserved:
-                prepared = ear._prepare(pos)
+                prepared = ear._prepare(tr.position)
                 while slots:
                     k = n - len(slots)
-                    imp = sequence[k]
-                    weight = ball.mass * gravity if imp.result.settled else 0.0
-                    ear._submit(_Impact(imp.result, onsets[k], g, weight), prepared, r, slots[0])
-                    slots.pop(0)
+                    result = sequence[k].result
+                    weight = tr.ball.mass * tr.gravity if result.settled else 0.0
+                    impact = _Impact(result, onsets[k], tr.gain, weight)
+                    ear._submit(impact, prepared, r, slots[0])
+                    slots.pop(0)  # handed over: not given back on a failure
         except BaseException:
             _release(reserved)
             raise
-        return Voice(self, vid, [r for _, r, _ in reserved], onsets, priority)
+        return Voice(self, vid, [r for _, r, _ in reserved], onsets, tr.priority)
 
     def roll(self, ball: Ball, position, velocity, **options) -> rolling.RollingVoice | None:
         """A ``ball`` rolling from ``position`` ((x, y), m) at ``velocity`` ((vx, vy), m/s), the
@@ -534,7 +505,7 @@ class Body:
         """Take the body out of its engine (later hits raise SynthError): it rings out (``fade``
         None) or fades over ``fade`` s (in [0.001, 10]); its arrays are then freed, its counts
         stay in the stats."""
-        frames = None if fade is None else stop_frames(self._engine, fade)
+        frames = None if fade is None else vc.stop_frames(self._engine, fade)
         if self._removed:
             return
         self._removed = True
@@ -549,11 +520,8 @@ class Body:
     def _free(self) -> None:
         """Let go of the arrays of every ear (the mixing no longer reads them)."""
         for ear in self._ears:
-            ear._freed = True
-            ear._ring = ear._rolls = ear._arrays = None
-            ear._prepared = {}
-            ear._solvers = {}
-            ear._grid = None
+            ear._freed, ear._prepared, ear._solvers = True, {}, {}
+            ear._ring = ear._rolls = ear._arrays = ear._grid = None
 
     def stop_all(self) -> None:
         """End every voice and drop pending impacts at the next block (at once without a stream)."""
@@ -607,7 +575,7 @@ def check_pan(value, channels: int, listeners: int = 1) -> float:
             f"pan={value!r}: this body is heard through {listeners} listeners (ears), whose "
             f"balance comes from the plate's radiation; pan is for a body of one listener"
         )
-    return closed("pan", value, -1.0, 1.0, "dimensionless")
+    return vc.closed("pan", value, -1.0, 1.0, "dimensionless")
 
 
 def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:

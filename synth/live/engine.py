@@ -2,6 +2,9 @@
 (docs/live.md). Its callback is compiled code with no Python, allocation or lock
 (:mod:`synth.live.native`); :meth:`Engine.process` runs the same mixing without a device.
 Levels are the listener's physical signal at the calibration of ``normalize="physical"``.
+The engine's clock, events and statistics are read from the arrays the audio thread writes;
+a watchdog finds a lost device, and a stream is closed within a bounded time even when the
+audio server is gone.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ import itertools
 import threading
 import time
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,10 +24,9 @@ from synth.errors import ParameterError, SynthError
 from synth.live import kernel, native
 from synth.live import state as st
 from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, check_listener, check_pan, ears
-from synth.live.bookkeeping import EngineBookkeeping, EngineStats, watch_device
+from synth.live.kernel import fence
 from synth.live.state import MAX_SECONDS, BodySettings, EngineOptions
-from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
-from synth.live.voice import MAX_GAIN, Voice, VoiceLimit, check_int, closed
+from synth.live.voice import MAX_AHEAD, MAX_GAIN, Voice, VoiceLimit, check_int, closed
 from synth.physics.scene import Microphone, Plate, Scene
 from synth.sound.radiation.fixed import GridTooLarge
 from synth.sound.render import listener_grid, modal_model
@@ -32,19 +35,61 @@ __all__ = ["Body", "Engine", "EngineStats", "Voice", "ears"]
 
 #: Voice-ended events the engine holds for :meth:`Engine.ended` (more are counted lost).
 EVENT_CAPACITY = 4096
+#: s (or 10 blocks if longer) without a callback after which a stream's device is lost; how
+#: often the watchdog looks, s; how long a collected running engine's finaliser waits for its
+#: stream to close, s.
+DEVICE_LOST = 0.5
+WATCH_PERIOD = 0.05
+CLOSE_TIMEOUT = 2.0
+#: Streams whose server did not answer and their arrays, kept (freeing could crash them).
+ABANDONED: list = []
+#: :class:`EngineStats` fields read from ``ctl``, ``times`` and the bodies' counters.
+_FROM_CTL = dict(callbacks=st.CALLBACKS, output_underflows=st.UNDERFLOWS, clipped=st.CLIPPED,
+                 transforms_max=st.TRANSFORMS_MAX,
+                 transforms_deferred=st.TRANSFORMS_DEFERRED)  # fmt: skip
+_FROM_TIMES = dict(callback_max=st.COST_MAX, callback_last=st.COST_LAST,
+                   callback_gap_max=st.GAP_MAX, peak=st.PEAK, output_peak=st.OUT_PEAK)  # fmt: skip
+_FROM_COUNTERS = dict(impacts_played=kernel.PLAYED, impacts_late=kernel.LATE,
+                      impacts_dropped=kernel.DROPPED)  # fmt: skip
 
 
-def _compile_the_block(*, rolling: bool) -> int:
-    """Compile (or load) the audio thread's code, and with ``rolling`` the rolling block;
-    returns that block's address for ``ctl[ROLLER]`` (0: none)."""
-    announce("live")
-    if rolling:
-        announce("live-rolling")
-    native.warm_up(rolling=rolling)
-    return native.rolling_block_code().address if rolling else 0
+@dataclass(frozen=True)
+class EngineStats:
+    """Counters of an engine since it was made (docs/live.md, "Stats"): callback costs in
+    blocks, peaks in full scale 1, limiter figures in dB since a reset, ``silent_for`` in s."""
+
+    callbacks: int
+    output_underflows: int
+    callback_mean: float
+    callback_max: float
+    callback_last: float
+    callback_gap_max: float
+    impacts_played: int
+    impacts_refused: int
+    drops_refused: int
+    impacts_too_close: int
+    impacts_late: int
+    transforms_max: int
+    transforms_deferred: int
+    impacts_pending: int
+    bodies_ringing: int
+    voices_playing: int
+    voices_stolen: int
+    voices_refused: int
+    impacts_dropped: int
+    events_lost: int
+    peak: float
+    output_peak: float
+    clipped: int
+    limiter_reduction_db: float
+    limiter_max_reduction_db: float
+    limiter_active: int
+    failed: str | None
+    silent_for: float
+    device_lost: bool
 
 
-class Engine(EngineBookkeeping):
+class Engine:
     """An always open output stream that mixes the ringing of every :class:`Body`, made with
     the keywords of :class:`EngineOptions` (docs/live.md states each): a body of one listener
     plays on every channel (panned by :attr:`Body.pan` with two), one listener per channel
@@ -54,21 +99,23 @@ class Engine(EngineBookkeeping):
         self.options = o = EngineOptions(**settings)
         self._device_lost: str | None = None  # why, once the watchdog found it lost
         self._voice_limit = VoiceLimit(o.max_total_voices)
-        roller = _compile_the_block(rolling=self.max_rolls > 0)
+        announce("live")
+        if o.max_rolls > 0:
+            announce("live-rolling")
+        native.warm_up(rolling=o.max_rolls > 0)  # compiles (or loads) the audio thread's code
+        roller = native.rolling_block_code().address if o.max_rolls > 0 else 0
         self._native = st.EngineState(o, roller, events=EVENT_CAPACITY)
         self.master_gain_db = o.master_gain_db
         self._bodies: tuple[Body, ...] = ()
-        self._stream = None
-        self._closer = None
+        self._stream = self._closer = None
         self._state = "idle"  # idle <-> running; failed for good
         self._failure: str | None = None
-        self._drops_refused = 0
+        self._drops_refused = self._too_close = 0
         # removed bodies: ringing out [body, None], or vacated [body, the mixing's progress]
         self._retiring: list = []
         self._retired_counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
         self._retired_refused = 0  # impacts refused by removed bodies' rings
         self._reap_lock = threading.Lock()  # between the game's threads, never waited on
-        self._too_close = 0
         self._next_voice_id = itertools.count(1).__next__  # atomic under the GIL
         self._events_lock = threading.Lock()  # between readers of ended()
         # the fixed radiation grids of plates whose listener moved, while a body holds them
@@ -156,6 +203,59 @@ class Engine(EngineBookkeeping):
         return plate, (listener,)
 
     @property
+    def bodies(self) -> tuple[Body, ...]:
+        """The bodies the engine holds (a removed one until its arrays are let go)."""
+        return self._bodies
+
+    def _retire(self, body: Body) -> None:
+        self._retiring.append([body, None])
+        self._reap()
+
+    def _reap(self) -> None:
+        """Vacate silent removed bodies from the directory, free those the mixing has left since.
+        Never waits (a host's audio callback may call it)."""
+        if not self._retiring or not self._reap_lock.acquire(blocking=False):
+            return
+        try:
+            for item in list(self._retiring):
+                body, progress = item
+                if progress is None:
+                    if not body.awake:
+                        item[1] = [self._native.vacate(ear._index) for ear in body._ears]
+                elif all(self._native.left(p) for p in progress):
+                    self._retired_counters += body._counters
+                    self._retired_refused += body._ring.refused
+                    for ear in body._ears:  # let go of its arrays: its entry is free again
+                        self._native.records[ear._index] = None
+                    body._free()
+                    self._bodies = tuple(b for b in self._bodies if b is not body)
+                    self._retiring.remove(item)
+        finally:
+            self._reap_lock.release()
+
+    def ended(self) -> list[int]:
+        """The ids of the voices that ended (at every ear) since the last call, oldest first
+        (``stats.events_lost`` counts a full ring's)."""
+        self._reap()
+        with self._events_lock:
+            ev = self._native.events
+            written = int(ev[kernel.E_WRITTEN])
+            fence()  # the events before their count
+            cap = ev.shape[0] - kernel.N_EVENT_HEADER
+            ids = []
+            for k in range(int(ev[kernel.E_READ]), written):
+                vid, ears = divmod(int(ev[kernel.N_EVENT_HEADER + k % cap]), kernel.EVENT_EARS)
+                if ears > 1:
+                    seen = self._partial_events.pop(vid, 0) + 1
+                    if seen < ears:
+                        self._partial_events[vid] = seen
+                        continue
+                ids.append(vid)
+            fence()  # done reading before the writer may reuse the room
+            ev[kernel.E_READ] = written
+            return ids
+
+    @property
     def master_gain_db(self) -> float:
         """The master bus' gain, dB in [-120, 40]; a change is ramped over the next block."""
         return 20.0 * float(np.log10(self._native.times[st.MASTER_GAIN]))
@@ -214,8 +314,7 @@ class Engine(EngineBookkeeping):
 
     def reset_meter(self) -> None:
         """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
-        self._native.times[st.PEAK] = 0.0
-        self._native.times[st.OUT_PEAK] = 0.0
+        self._native.times[[st.PEAK, st.OUT_PEAK]] = 0.0
         if self._native.limiter is not None:
             self._native.limiter.reset_meter()
 
@@ -226,6 +325,44 @@ class Engine(EngineBookkeeping):
     def resume(self) -> None:
         """Play on from where :meth:`pause` held the clock, fading in over ``fade`` s."""
         self._native.ctl[st.PAUSE] = 0
+
+    @property
+    def paused(self) -> bool:
+        """Whether :meth:`pause` was called (and :meth:`resume` not since)."""
+        return bool(self._native.ctl[st.PAUSE])
+
+    @property
+    def running(self) -> bool:
+        return self._state == "running"
+
+    @property
+    def failed(self) -> str | None:
+        """Why the engine's stream failed (it then refuses everything), or None."""
+        return self._failure
+
+    @property
+    def _frame(self) -> int:
+        return int(self._native.ctl[st.FRAME])
+
+    @property
+    def time(self) -> float:
+        """The next frame to be mixed, s on the engine's clock."""
+        return self._frame / self.samplerate
+
+    @property
+    def recording(self) -> np.ndarray:
+        """The first ``record_seconds`` of the output, float32 (frames, channels)."""
+        return self._native.recording
+
+    @property
+    def recorded(self) -> int:
+        """Frames of :attr:`recording` written so far."""
+        return int(self._native.ctl[st.RECORDED])
+
+    @property
+    def latency(self) -> float:
+        """The stream's output latency at the last callback, s (0 without a stream)."""
+        return float(self._native.times[st.LEAD]) if self.running else 0.0
 
     def process(self, frames: int) -> np.ndarray:
         """The next ``frames`` frames mixed without a device, in blocks of ``blocksize``: float32
@@ -241,7 +378,7 @@ class Engine(EngineBookkeeping):
     def mix_into(self, out: np.ndarray) -> np.ndarray:
         """Mix the next frames into ``out`` (a writeable C-contiguous float32 (frames, channels)
         array, overwritten), for hosts that own the audio callback; returns ``out``."""
-        native.check_block(self._native.ctl, out)
+        _check_block(out, self.channels)
         check_int("frames", out.shape[0], 0, int(MAX_SECONDS * self.samplerate), "frames")
         if self.running:
             raise SynthError("mix_into() mixes without the engine's stream: stop() it first")
@@ -269,12 +406,12 @@ class Engine(EngineBookkeeping):
         from synth.io.playback import sounddevice_module
 
         sd = sounddevice_module()
-        info = check_device(sd, self.device, self.channels, self.samplerate)
+        info = _check_device(sd, self.device, self.channels, self.samplerate)
         for body in self._bodies:  # hits queued without a stream: not bounded per block
             for ear in body._ears:
                 native.transform_pending(ear._record)
         try:
-            stream = open_stream(
+            stream = _open_stream(
                 sd, self._native, self.callback, samplerate=self.samplerate,
                 blocksize=self.blocksize, device=self.device, channels=self.channels,
                 latency=self.options.latency,
@@ -284,25 +421,20 @@ class Engine(EngineBookkeeping):
                 f"cannot open the output device {info['name']!r} at "
                 f"{self.samplerate} Hz with {self.channels} channel(s): {exc}"
             ) from None
-        times = self._native.times
+        times, ctl = self._native.times, self._native.ctl
         times[st.NOMINAL_LATENCY] = times[st.LEAD] = float(stream.latency)
         times[st.END_TIME] = st.monotonic()
         times[st.LAST_ENTRY] = 0.0  # the time stopped is not a gap
-        ctl = self._native.ctl
-        ctl[st.FADE_AT] = -1
-        ctl[st.SEQ] = 0
+        ctl[[st.FADE_AT, st.SEQ]] = (-1, 0)
         self._stream = stream
         # closes the stream if the engine is collected while it runs (the closer keeps the
         # arrays whose addresses the stream holds)
-        self._closer = weakref.finalize(self, close_stream, stream, self._native, CLOSE_TIMEOUT)
+        self._closer = weakref.finalize(self, _close_stream, stream, self._native, CLOSE_TIMEOUT)
         self._state = "running"
         self._device_lost = None
         stream.start()
-        watch = threading.Thread(
-            target=watch_device, args=(weakref.ref(self), stream), name="synth-watchdog",
-            daemon=True,
-        )  # fmt: skip
-        watch.start()
+        threading.Thread(target=_watch_device, args=(weakref.ref(self), stream),
+                         name="synth-watchdog", daemon=True).start()  # fmt: skip
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
@@ -319,7 +451,7 @@ class Engine(EngineBookkeeping):
         while not silent and ctl[st.FADE_AT] < length and time.monotonic() < deadline:
             time.sleep(0.002)
         self._closer.detach()
-        done = close_stream(
+        done = _close_stream(
             self._stream, self._native, max(0.0, deadline - time.monotonic()), abort=False
         )
         self._stream = None  # its watchdog ends
@@ -332,8 +464,7 @@ class Engine(EngineBookkeeping):
             )
             return
         self._state = "idle"
-        ctl[st.FADE_AT] = -1
-        ctl[st.PAUSE] = 0  # a pause ends with the stream
+        ctl[[st.FADE_AT, st.PAUSE]] = (-1, 0)  # a pause ends with the stream
         self._native.times[st.PAUSE_LEVEL] = 1.0
         for body in self._bodies:
             body._apply_silence()
@@ -343,6 +474,93 @@ class Engine(EngineBookkeeping):
 
     def __exit__(self, *exc) -> None:
         self.stop()
+
+    def _check_open(self, what: str):
+        if self._state == "failed":
+            raise SynthError(f"cannot {what}: the engine's audio stream failed ({self._failure})")
+
+    def _silent_for(self) -> float:
+        """Seconds since the stream's last callback returned; 0 without a stream."""
+        if not self.running:
+            return 0.0
+        return max(0.0, st.monotonic() - float(self._native.times[st.END_TIME]))
+
+    def _lost(self) -> str | None:
+        """Why the running stream's device is taken as lost, or None."""
+        silent = self._silent_for()
+        limit = max(DEVICE_LOST, 10 * self.blocksize / self.samplerate)
+        if silent > limit:
+            return (
+                f"the audio stream has not called back for {silent:.2f} s (more than {limit:g} "
+                f"s): its device or audio server is gone; stop() the engine (stats.silent_for)"
+            )
+        return None
+
+    def _check_alive(self) -> None:
+        why = self._lost()
+        if why is not None:
+            raise SynthError(why)
+
+    def _onset(self, at) -> float:
+        """A tick's start, s on the engine's clock: ``at`` (at most ``MAX_AHEAD`` s ahead), or one
+        block plus the latency, look-ahead and ``handover`` from now (no stream: the next frame)."""
+        self._check_open("play an impact")
+        self._check_alive()
+        if at is None:
+            if not self.running:
+                return (self._frame + self.blocksize) / self.samplerate
+            times, fs = self._native.times, self.samplerate
+            lead = times[st.LEAD] + times[st.LIMIT_DELAY]
+            frame, dac, callbacks = self._native.anchor()
+            if callbacks == 0:  # no callback yet: the stream starts with the next frame
+                now = float(self._frame) - lead * fs
+            else:  # the frame leaving the device now
+                now = frame + (st.monotonic() - dac) * fs
+            frame = now + self.blocksize + (lead + self.handover) * fs
+            return max(frame, float(self._frame)) / self.samplerate
+        t = checks.real("at", at, "s")
+        earliest = self._frame / self.samplerate
+        latest = earliest + MAX_AHEAD
+        if (not self.running and t < earliest) or t < 0.0 or t > latest:
+            lo = earliest if not self.running else 0.0
+            raise ParameterError(
+                f"at={at!r} must be in [{lo!r}, {latest!r}] s (the engine's clock: from "
+                f"{'its next frame' if not self.running else '0'} to {MAX_AHEAD:g} s after "
+                f"Engine.time)"
+            )
+        return t
+
+    @property
+    def stats(self) -> EngineStats:
+        self._reap()
+        # a body heard by several listeners counts its first's
+        counts = self._retired_counters + sum(b._counters for b in self._bodies)
+        c, t, lim = self._native.ctl, self._native.times, self._native.limiter
+        read = (
+            {name: int(c[i]) for name, i in _FROM_CTL.items()}
+            | {name: float(t[i]) for name, i in _FROM_TIMES.items()}
+            | {name: int(counts[i]) for name, i in _FROM_COUNTERS.items()}
+        )
+        n = read["callbacks"]
+        return EngineStats(
+            **read,
+            callback_mean=float(t[st.COST_SUM]) / n if n else 0.0,
+            impacts_refused=self._retired_refused + sum(b._ring.refused for b in self._bodies),
+            drops_refused=self._drops_refused,
+            impacts_too_close=self._too_close,
+            impacts_pending=sum(b.pending for b in self._bodies),
+            bodies_ringing=sum(b.ringing for b in self._bodies),
+            voices_playing=sum(b.voices_playing for b in self._bodies),
+            voices_stolen=int(counts[kernel.STOLEN]) + self._voice_limit.stolen,
+            voices_refused=self._voice_limit.refused + int(counts[kernel.REFUSED]),
+            events_lost=int(self._native.events[kernel.E_LOST]),
+            limiter_reduction_db=lim.reduction_db if lim else 0.0,
+            limiter_max_reduction_db=lim.max_reduction_db if lim else 0.0,
+            limiter_active=lim.active_frames if lim else 0,
+            failed=self._failure,
+            device_lost=self._device_lost is not None,
+            silent_for=self._silent_for(),
+        )
 
 
 def _shifted(listeners, position) -> tuple:
@@ -377,3 +595,102 @@ for _name in ("samplerate", "blocksize", "device", "channels", "callback", "hand
               "max_pending", "max_hits_per_block", "pulse_points", "max_frequency",
               "max_voices", "max_rolls", "max_total_voices"):  # fmt: skip
     setattr(Engine, _name, _option(_name))
+
+
+def _watch_device(engine_ref, stream) -> None:
+    """A running stream's watchdog: reports a lost device once (``on_device_lost``); holds the
+    engine weakly and ends with the stream."""
+    while True:
+        engine = engine_ref()
+        if engine is None or engine._stream is not stream:
+            return
+        why = engine._lost()
+        if why is not None:
+            engine._device_lost = why
+            callback = engine.options.on_device_lost
+            del engine
+            if callback is not None:
+                callback(why)
+            return
+        del engine
+        time.sleep(WATCH_PERIOD)
+
+
+def _check_device(sd, device, channels: int, samplerate: int) -> dict:
+    """PortAudio's output ``device`` (None: default), checked for ``channels`` float32
+    channels at ``samplerate`` Hz (else SynthError)."""
+    try:
+        info = sd.query_devices(device, kind="output")
+    except (ValueError, sd.PortAudioError) as exc:
+        raise SynthError(
+            f"no audio output device{'' if device is None else f' {device!r}'} "
+            f"({exc}); list the devices with `python -m sounddevice`, or render offline "
+            f"with Engine.process()"
+        ) from None
+    try:
+        sd.check_output_settings(
+            device=device, channels=channels, dtype="float32", samplerate=samplerate
+        )
+    except (ValueError, sd.PortAudioError) as exc:
+        raise SynthError(
+            f"the output device {info['name']!r} does not take {samplerate} Hz with "
+            f"{channels} channel(s) ({exc}); its default rate is "
+            f"{info['default_samplerate']:g} Hz: make the Engine at a rate it offers"
+        ) from None
+    return info
+
+
+def _open_stream(sd, state, callback: str, **settings):
+    """A PortAudio float32 output stream mixing ``state``: the compiled callback on its
+    address, or Python (holding the arrays, not the engine) running the compiled block."""
+    if callback == "python":
+        ctl, time_info = state.ctl, np.zeros(3)  # adc, current and dac time, s
+
+        def python_callback(outdata, frames, info, status):
+            time_info[1:] = info.currentTime, info.outputBufferDacTime
+            native.mix_engine(ctl, outdata, status._flags, time_info)
+
+        return sd.OutputStream(callback=python_callback, dtype="float32", **settings)
+    import cffi
+
+    ffi = cffi.FFI()
+    return sd._StreamBase(
+        kind="output", wrap_callback=None, dtype="float32",
+        callback=ffi.cast("void *", native.stream_callback().address),
+        userdata=ffi.cast("void *", state.address), **settings,
+    )  # fmt: skip
+
+
+def _close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
+    """Stop (or abort) and close ``stream`` on a helper thread within ``timeout`` s (PortAudio
+    can hang when the server is gone), else keep it for good. Returns whether it closed."""
+
+    def close():
+        try:
+            stream.abort() if abort else stream.stop()
+        finally:
+            stream.close()
+
+    worker = threading.Thread(target=close, name="synth-close-stream", daemon=True)
+    worker.start()
+    worker.join(timeout)
+    if worker.is_alive():
+        ABANDONED.append((stream, state))
+        return False
+    return True
+
+
+def _check_block(out, channels: int) -> None:
+    """``out`` checked: a writeable C-contiguous float32 (frames, channels) array."""
+    if not (
+        isinstance(out, np.ndarray)
+        and out.dtype == np.float32
+        and out.ndim == 2
+        and out.shape[1] == channels
+        and out.flags.c_contiguous
+        and out.flags.writeable
+    ):
+        raise ParameterError(
+            f"out={type(out).__name__} {getattr(out, 'dtype', '')} {getattr(out, 'shape', '')} "
+            f"must be a writeable C-contiguous float32 array of shape (frames, {channels})"
+        )

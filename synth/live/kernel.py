@@ -1,9 +1,11 @@
 """The audio thread's work on a body, one compiled call a block (``nogil``: trigger threads
-run meanwhile). Voice slots are modal states as the offline bank's
-(:mod:`synth.sound.modal_bank`), heard through the listener's gains (:mod:`synth.live.heard`),
-so a voice is the offline render of its impacts up to rounding, times its gain and fades. A
-voice takes a free slot or steals the lowest priority's, of those the oldest (:func:`_victim`),
-and ends when every mode is below its omission share or its stop fade ends.
+run meanwhile). Voice slots hold the plate's modal states as the offline bank's
+(:mod:`synth.sound.modal_bank`), heard through each mode's complex listener gain (ramped after
+:meth:`synth.live.Body.move`; a mode no longer heard parks its state, :func:`park`), so a voice
+is the offline render of its impacts up to rounding, times its gain and fades. A voice takes a
+free slot or steals the lowest priority's, of those the oldest (:func:`_victim`), and ends when
+every mode is below its omission share or its stop fade ends. Producers write data, then a
+fence, then the state word (read in the other order): ARM64 may reorder either side without it.
 """
 
 from __future__ import annotations
@@ -12,13 +14,145 @@ import math
 
 import numba
 import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from synth.compilation import compiled
-from synth.live import heard as hd
-from synth.live.atomics import fence
 from synth.sound.modal_bank import transform_pulse
+from synth.sound.modal_bank.bank_kernels import SUB, falls_silent
 
-#: Slot states of the pending ring (:mod:`synth.live.queue`; WRITING = 2 is the producers').
+
+@intrinsic
+def _fence(typingctx):
+    sig = types.none()
+
+    def codegen(context, builder, signature, args):
+        builder.fence("seq_cst")
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@compiled(nogil=True, inline="always")
+def fence():
+    """A sequentially consistent fence (compiler and processor)."""
+    _fence()
+
+
+@compiled(nogil=True)
+def publish(state, slot, value):
+    """``state[slot] = value`` after the calling thread's earlier stores are visible."""
+    _fence()
+    state[slot] = value
+
+
+@intrinsic
+def pointer_to(typingctx, address):
+    """The int64 ``address`` as a ``void*`` (for ``numba.carray``)."""
+    sig = types.voidptr(types.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return sig, codegen
+
+
+#: Rows of ``heard`` (float64, (N_HEARD_ROWS, K)): gains at the block's start, target, handed over.
+H0R, H0I, H1R, H1I, HPR, HPI, N_HEARD_ROWS = range(7)
+#: ``heard_seq``: the producer's sequence number (odd while written), the last one taken.
+SEQ_PUT, SEQ_TAKEN = range(2)
+
+
+@compiled(nogil=True, inline="always")
+def heard_power(heard, k):
+    """Mode ``k``'s largest ``|G|^2`` over the block (never left out while ramped louder)."""
+    a = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
+    b = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
+    return max(a, b)
+
+
+@compiled(nogil=True, inline="always")
+def park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
+    """Park mode ``k``'s plate state ``cr + i ci`` at sample ``at`` (added to what it parked,
+    decayed) for a later listener."""
+    pr, pi = park_r[k], park_i[k]
+    if pr != 0.0 or pi != 0.0:
+        e = np.exp(poles[k] * ((at - park_at[k]) / fs))
+        pr, pi = pr * e.real - pi * e.imag, pr * e.imag + pi * e.real
+    park_r[k], park_i[k], park_at[k] = pr + cr, pi + ci, at
+
+
+@compiled(nogil=True)
+def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
+               poles, fs, park_r, park_i, park_at, heard, t0, n):  # fmt: skip
+    """``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``, the gain ramped from ``t0`` over
+    ``n`` samples, folded into the state once per ``SUB`` samples (the bank's inner loop); a
+    mode that fits its omission share stops and parks."""
+    K = zr.shape[0]
+    inv_n = 1.0 / n
+    for k in range(K):
+        if not active[k]:
+            continue
+        pr, pi = table[k, 0], table[k, 1]
+        g0r, g0i, g1r, g1i = heard[H0R, k], heard[H0I, k], heard[H1R, k], heard[H1I, k]
+        ramp = g0r != g1r or g0i != g1i
+        g2 = heard_power(heard, k)
+        cr, ci = zr[k], zi[k]
+        s = a
+        while s < b:
+            m = min(SUB, b - s)
+            o = out[s - offset : s - offset + m]
+            if not ramp or s >= t0 + n:
+                hr = g1r * cr - g1i * ci
+                hi = g1r * ci + g1i * cr
+                for j in range(m):
+                    o[j] += hr * pr[j] - hi * pi[j]
+            else:
+                hr = g0r * cr - g0i * ci
+                hi = g0r * ci + g0i * cr
+                dr = (g1r - g0r) * cr - (g1i - g0i) * ci
+                di = (g1r - g0r) * ci + (g1i - g0i) * cr
+                base = s - t0 + 1
+                for j in range(m):
+                    u = min(1.0, (base + j) * inv_n)
+                    o[j] += (hr * pr[j] - hi * pi[j]) + u * (dr * pr[j] - di * pi[j])
+            er, ei = pr[m], pi[m]
+            cr, ci = cr * er - ci * ei, cr * ei + ci * er
+            s += m
+            m2 = (cr * cr + ci * ci) * g2
+            if m2 < thr2[k] and falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
+                park(park_r, park_i, park_at, k, cr, ci, s, poles, fs)
+                active[k] = False
+                cr = ci = 0.0
+                break
+        zr[k], zi[k] = cr, ci
+
+
+@compiled(nogil=True, inline="always")
+def inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a, park_r,
+                  park_i, park_at, heard):  # fmt: skip
+    """:func:`~synth.sound.modal_bank.inject_amplitudes` of plate amplitudes ``amps``, the
+    omission test on the heard level; a mode that stops parks (:func:`park`)."""
+    for k in range(zr.shape[0]):
+        zr[k] += amps[k].real
+        zi[k] += amps[k].imag
+        m2 = (zr[k] * zr[k] + zi[k] * zi[k]) * heard_power(heard, k)
+        active[k] = not falls_silent(k, m2, a, debt, debt_at, thresholds, poles, fs)
+        if not active[k]:
+            park(park_r, park_i, park_at, k, zr[k], zi[k], a, poles, fs)
+            zr[k] = zi[k] = 0.0
+
+
+def heard_arrays(gains) -> tuple:
+    """A body's ``heard``, every row at the complex ``gains`` (K,), and its ``heard_seq``."""
+    heard = np.empty((N_HEARD_ROWS, gains.size))
+    heard[0::2] = gains.real
+    heard[1::2] = gains.imag
+    return heard, np.zeros(2, dtype=np.int64)
+
+
+#: Slot states of the pending ring (:mod:`synth.live.voice`; WRITING = 2 is the producers').
 FREE, READY, PULSE = 0, 1, 3
 #: A PULSE slot's scalars: grid step (s), first in-contact sample from first touch (s),
 #: weight left on the plate (N), contact time (s), rule's order, gain, direct-term line.
@@ -63,8 +197,7 @@ def _voice_ended(records, r, events, ears):
 def post_event(events, value):
     """Post ``value`` in the event ring (lock-free: one writer, the mixing, one reader,
     :meth:`synth.live.Engine.ended`), or count it lost if the ring is full."""
-    cap = events.shape[0] - N_EVENT_HEADER
-    written = events[E_WRITTEN]
+    cap, written = events.shape[0] - N_EVENT_HEADER, events[E_WRITTEN]
     if written - events[E_READ] >= cap:
         events[E_LOST] += 1
         return
@@ -122,8 +255,7 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
     """Add the in-contact samples in ``[t0, t0 + n)`` of pending impacts at their voice's
     gain; drop those of stopped voices, refuse an outranked voice before it sounds."""
     state, first, length, response, voice = ring[0], ring[2], ring[3], ring[5], ring[7]
-    records, vgain = voice_form[0], voice_form[1]
-    end = t0 + n
+    records, vgain, end = voice_form[0], voice_form[1], t0 + n
     for i in range(state.shape[0]):
         if state[i] != READY:
             continue
@@ -131,9 +263,7 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
         r = voice[i]
         if _drop_stopped(state, i, records, r, counters, events):
             continue
-        g = vgain[r]
-        lo = max(first[i], t0)
-        hi = min(first[i] + length[i], end)
+        g, lo, hi = vgain[r], max(first[i], t0), min(first[i] + length[i], end)
         if lo < hi and records[r, V_SLOT] < 0 and _outranked(records, voice_form[2], r):
             _refuse(state, i, records, r, counters, events)  # before it sounds at all
             continue
@@ -144,14 +274,12 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
 @compiled(nogil=True)
 def _earliest(state, inject, form, end):
     """The slot in ``form`` (READY or PULSE) with the earliest injection before ``end``, or -1."""
-    best = -1
-    when = end
+    best, when = -1, end
     for i in range(state.shape[0]):
         if state[i] == form:
             fence()  # the slot's data after its state word
             if inject[i] < when:
-                when = inject[i]
-                best = i
+                when, best = inject[i], i
     return best
 
 
@@ -171,18 +299,12 @@ def transform_pulses(body, limit):
         i = _earliest(state, inject, np.int64(PULSE), np.int64(NEVER))
         if i < 0:
             break
-        n = points[i]
-        M = length[i]
-        p = pulse[i]
-        amps = amplitudes[i]
+        n, M, p, amps = points[i], length[i], pulse[i], amplitudes[i]
         resp = response[i, :M]
-        forces = samples[i, 0]
-        slopes = samples[i, 1]
-        cr = coefficients[i, 0]
-        ci = coefficients[i, 1]
+        forces, slopes = samples[i, 0], samples[i, 1]
+        cr, ci = coefficients[i, 0], coefficients[i, 1]
         for k in range(cr.shape[0]):
-            gr = heard[hd.H1R, k]
-            gi = heard[hd.H1I, k]
+            gr, gi = heard[H1R, k], heard[H1I, k]
             heard_coef[0, k] = gr * cr[k] - gi * ci[k]
             heard_coef[1, k] = gr * ci[k] + gi * cr[k]
         transform_pulse(
@@ -215,13 +337,12 @@ def _revive(t0, bank, modal, slots):
     zr, zi, active, debt, thr2 = modal[0], modal[1], modal[2], modal[3], modal[6]
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
     for k in range(zr.shape[1]):
-        before = heard[hd.H0R, k] * heard[hd.H0R, k] + heard[hd.H0I, k] * heard[hd.H0I, k]
-        after = heard[hd.H1R, k] * heard[hd.H1R, k] + heard[hd.H1I, k] * heard[hd.H1I, k]
+        before = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
+        after = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
         if after <= before:
             continue
         for s in range(slots.shape[0]):
-            pr = park_r[s, k]
-            pi = park_i[s, k]
+            pr, pi = park_r[s, k], park_i[s, k]
             if (pr == 0.0 and pi == 0.0) or slots[s, SL_OWNER] < 0:
                 continue
             # heard now at most |G1| |park| (it decays): below its share it stays parked
@@ -234,9 +355,7 @@ def _revive(t0, bank, modal, slots):
             e = np.exp(poles[k] * ((t0 - park_at[s, k]) / fs))
             zr[s, k] += pr * e.real - pi * e.imag
             zi[s, k] += pr * e.imag + pi * e.real
-            park_r[s, k] = 0.0
-            park_i[s, k] = 0.0
-            debt[s, k] = 0.0
+            park_r[s, k] = park_i[s, k] = debt[s, k] = 0.0
             active[s, k] = True
 
 
@@ -253,19 +372,19 @@ def _take_gains(t0, bank, modal, slots, asleep):
     """At a block's start the last target gains become the start; gains handed over (whole,
     under the producer's sequence number) the target (at once for a body ``asleep``)."""
     heard, seq = bank[3], bank[4]
-    _copy_gains(heard, hd.H0R, hd.H1R)
-    put = seq[hd.SEQ_PUT]
-    if put == seq[hd.SEQ_TAKEN] or put % 2 == 1:
+    _copy_gains(heard, H0R, H1R)
+    put = seq[SEQ_PUT]
+    if put == seq[SEQ_TAKEN] or put % 2 == 1:
         return
     fence()  # the gains after their sequence number
-    _copy_gains(heard, hd.H1R, hd.HPR)
+    _copy_gains(heard, H1R, HPR)
     fence()
-    if seq[hd.SEQ_PUT] != put:  # rewritten meanwhile: keep the old target, retry next block
-        _copy_gains(heard, hd.H1R, hd.H0R)
+    if seq[SEQ_PUT] != put:  # rewritten meanwhile: keep the old target, retry next block
+        _copy_gains(heard, H1R, H0R)
         return
-    seq[hd.SEQ_TAKEN] = put
+    seq[SEQ_TAKEN] = put
     if asleep:
-        _copy_gains(heard, hd.H0R, hd.H1R)
+        _copy_gains(heard, H0R, H1R)
     else:
         _revive(t0, bank, modal, slots)
 
@@ -278,7 +397,7 @@ def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
     for j in range(a - offset, b - offset):
         vs[j] = 0.0
-    hd.ring_heard(
+    ring_heard(
         vs, offset, a, b, table, zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s],
         thr2[s], poles, fs, park_r[s], park_i[s], park_at[s], heard, t0, n,
     )  # fmt: skip
@@ -299,11 +418,8 @@ def _fade(x, at, frames):
 def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
     """Add a slot's samples ``a .. b - 1`` into ``out`` (from ``t0``; later ones into the ring
     buffer ``tail``) at its ramped gain and fades."""
-    g0 = gains[G_NOW]
-    g1 = gains[G_NEXT]
-    fade_at = slot[SL_FADE_AT]
-    steal_at = slot[SL_POS]
-    steal_frames = slot[SL_STEAL]
+    g0, g1 = gains[G_NOW], gains[G_NEXT]
+    fade_at, steal_at, steal_frames = slot[SL_FADE_AT], slot[SL_POS], slot[SL_STEAL]
     plain = g0 == g1 and fade_at < 0 and steal_frames == 0
     L = tail.shape[0]
     for x in range(a, b):
@@ -340,17 +456,11 @@ def _victim(records, slots, r):
     if that outranks ``r``. The oldest, not the quietest: age is the same at every ear."""
     s = numba.int64(0)  # not a literal: its callees are compiled for int64 once
     for j in range(1, slots.shape[0]):
-        pj = records[slots[j, SL_OWNER], V_PRIORITY]
-        ps = records[slots[s, SL_OWNER], V_PRIORITY]
-        if pj < ps or (
-            pj == ps
-            and (
-                slots[j, SL_START] < slots[s, SL_START]
-                or (
-                    slots[j, SL_START] == slots[s, SL_START]
-                    and records[slots[j, SL_OWNER], V_ID] < records[slots[s, SL_OWNER], V_ID]
-                )
-            )
+        qj, qs = slots[j, SL_OWNER], slots[s, SL_OWNER]
+        if (records[qj, V_PRIORITY], slots[j, SL_START], records[qj, V_ID]) < (
+            records[qs, V_PRIORITY],
+            slots[s, SL_START],
+            records[qs, V_ID],
         ):
             s = j
     if records[slots[s, SL_OWNER], V_PRIORITY] > records[r, V_PRIORITY]:
@@ -369,9 +479,7 @@ def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
     _add_slot(out, t0, n, vs, at, at, at + F, slots[s], voice_form[3][s], tail)
     counters[TAIL_END] = max(counters[TAIL_END], at + F)
     q = slots[s, SL_OWNER]
-    records[q, V_DEAD] = 1
-    records[q, V_SLOT] = -1
-    slots[s, SL_OWNER] = -1
+    records[q, V_DEAD], records[q, V_SLOT], slots[s, SL_OWNER] = 1, -1, -1
     counters[STOLEN] += 1
     _settle(records, q, events, counters[EARS])
 
@@ -395,12 +503,8 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
         a[s, :] = 0.0
     active[s, :] = False
     level[s] = 0.0
-    slots[s, SL_OWNER] = r
-    slots[s, SL_START] = at
-    slots[s, SL_FADE_AT] = -1
-    slots[s, SL_FADE_LEN] = 0
-    slots[s, SL_POS] = at
-    slots[s, SL_STEAL] = 0
+    slots[s, SL_OWNER], slots[s, SL_START], slots[s, SL_POS] = r, at, at
+    slots[s, SL_FADE_AT], slots[s, SL_FADE_LEN], slots[s, SL_STEAL] = -1, 0, 0
     slot_gain[s, G_NOW] = slot_gain[s, G_NEXT] = vgain[r]
     records[r, V_SLOT] = s
     return s
@@ -417,10 +521,9 @@ def _inject(s, i, at, ring, bank, modal, floor):
     if reference[i] > level[s]:
         level[s] = reference[i]
         share = floor * level[s] / max(K, 1)
-        for k in range(K):
-            thresholds[s, k] = share
-            thr2[s, k] = share * share
-    hd.inject_heard(
+        thresholds[s, :] = share
+        thr2[s, :] = share * share
+    inject_heard(
         zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s], poles, fs, amplitudes[i],
         at, modal[8][s], modal[9][s], modal[10][s], heard,
     )  # fmt: skip
@@ -438,17 +541,14 @@ def _begin_voices(t0, voice_form):
         slot_gain[s, G_NEXT] = vgain[r]
         stop = records[r, V_STOP]
         if stop >= 0 and slots[s, SL_FADE_AT] < 0:
-            slots[s, SL_FADE_AT] = t0
-            slots[s, SL_FADE_LEN] = max(stop, 1)
+            slots[s, SL_FADE_AT], slots[s, SL_FADE_LEN] = t0, max(stop, 1)
 
 
 @compiled(nogil=True, inline="always")
 def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
     """Ring every slot to the block's end, free those silent or faded; returns those ringing."""
     records, slots, slot_gain = voice_form[0], voice_form[2], voice_form[3]
-    active = modal[2]
-    end = t0 + n
-    ringing = 0
+    active, end, ringing = modal[2], t0 + n, 0
     for s in range(slots.shape[0]):
         r = slots[s, SL_OWNER]
         if r < 0:
@@ -463,8 +563,7 @@ def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
                     done = False
                     break
         if done:
-            slots[s, SL_OWNER] = -1
-            records[r, V_SLOT] = -1
+            slots[s, SL_OWNER] = records[r, V_SLOT] = -1
             _settle(records, r, events, counters[EARS])
         else:
             ringing += 1
@@ -485,8 +584,7 @@ def mix_body(out, vs, t0, n, body, events, limit):
     """Mix ``body`` (a :class:`~synth.live.state.BodyForm`) into ``out[0:n]`` (samples from
     ``t0``; ``vs``: a voice's scratch); ``limit``: most pulses transformed (-1: all)."""
     bank, modal, ring, voice_form = body.bank, body.modal, body.ring, body.voice_form
-    counters, floor = body.counters, body.floor
-    state, inject = ring[0], ring[1]
+    counters, floor, state, inject = body.counters, body.floor, ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
     pulses = transform_pulses(body, limit)
@@ -543,15 +641,13 @@ def silence(body, events):
     """Stop every voice and drop every pending impact of ``body`` (a dropped pulse counts as
     taken)."""
     ring, voice_form, counters = body.ring, body.voice_form, body.counters
-    transformed = body.transformed
-    state, voice = ring[0], ring[7]
+    transformed, state, voice = body.transformed, ring[0], ring[7]
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     ears = counters[EARS]
     for s in range(slots.shape[0]):
         r = slots[s, SL_OWNER]
         if r >= 0:
-            slots[s, SL_OWNER] = -1
-            records[r, V_SLOT] = -1
+            slots[s, SL_OWNER] = records[r, V_SLOT] = -1
             records[r, V_DEAD] = 1
     for i in range(state.shape[0]):
         if state[i] == PULSE or state[i] == READY:
@@ -566,9 +662,7 @@ def silence(body, events):
             _settle(records, r, events, ears)
     for j in range(tail.shape[0]):
         tail[j] = 0.0
-    counters[TAIL_END] = 0
-    counters[AWAKE] = 0
-    counters[SILENCE] = 0
+    counters[TAIL_END] = counters[AWAKE] = counters[SILENCE] = 0
 
 
 def body_state(modes: int, voices: int) -> dict:

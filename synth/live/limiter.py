@@ -126,9 +126,7 @@ class LimiterState:
 @compiled(nogil=True, inline="always")
 def _required_gain(ints, floats, taps, x, q):
     """``r(q)``: 1, or the ceiling over the true-peak estimate at ``q`` (every channel)."""
-    L = x.shape[0]
-    ceiling = floats[F_CEILING]
-    peak = 0.0
+    L, ceiling, peak = x.shape[0], floats[F_CEILING], 0.0
     for c in range(x.shape[1]):
         a = abs(x[q % L, c])
         if a > peak:
@@ -148,13 +146,10 @@ def _required_gain(ints, floats, taps, x, q):
 @compiled(nogil=True, inline="always")
 def _window_min(ints, r, u):
     """``m(u)``: the least ``r`` over ``[u - REACH, u + A + REACH]`` (exactly 1 if none < 1)."""
-    A = ints[I_ATTACK]
-    hi = u + A + REACH
     if ints[I_BELOW_AT] < u - REACH:
         return 1.0
-    L = r.shape[0]
-    least = 1.0
-    for q in range(u - REACH, hi + 1):
+    L, least = r.shape[0], 1.0
+    for q in range(u - REACH, u + ints[I_ATTACK] + REACH + 1):
         v = r[q % L]
         if v < least:
             least = v
@@ -166,16 +161,14 @@ def limit_block(state, bus, n):
     """Limit ``bus[c, 0:n]`` (float64, full scale 1) in place: each frame goes in, the frame
     ``D`` earlier comes out at the gain. ``state``: :meth:`LimiterState.arrays`."""
     ints, floats, taps, x, r, m = state
-    D = ints[I_DELAY]
-    A = ints[I_ATTACK]
-    channels = ints[I_CHANNELS]
-    Lx = x.shape[0]
-    Lr = r.shape[0]
-    Lm = m.shape[0]
-    release = floats[F_RELEASE]
-    gain = floats[F_GAIN]
-    total = floats[F_SUM]
-    least = floats[F_MIN_GAIN]
+    D, A, channels = ints[I_DELAY], ints[I_ATTACK], ints[I_CHANNELS]
+    Lx, Lr, Lm = x.shape[0], r.shape[0], m.shape[0]
+    release, gain, total, least = (
+        floats[F_RELEASE],
+        floats[F_GAIN],
+        floats[F_SUM],
+        floats[F_MIN_GAIN],
+    )
     active = 0
     for s in range(n):
         k = ints[I_TAKEN]
@@ -190,8 +183,7 @@ def limit_block(state, bus, n):
         # the newest position of the mean's window, and the frame that leaves now
         u = q - A - REACH
         t = k - D
-        mu = _window_min(ints, r, u)
-        old = m[u % Lm]
+        mu, old = _window_min(ints, r, u), m[u % Lm]
         m[u % Lm] = mu
         if old < 1.0:
             ints[I_BOX_BELOW] -= 1
@@ -211,7 +203,5 @@ def limit_block(state, bus, n):
         for c in range(channels):
             bus[c, s] = x[t % Lx, c] * gain if gain < 1.0 else x[t % Lx, c]
         ints[I_TAKEN] = k + 1
-    floats[F_GAIN] = gain
-    floats[F_SUM] = total
-    floats[F_MIN_GAIN] = least
+    floats[F_GAIN], floats[F_SUM], floats[F_MIN_GAIN] = gain, total, least
     ints[I_ACTIVE] += active

@@ -18,15 +18,12 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from synth.compilation import FASTMATH, cfunc_compiling, compiled
-from synth.errors import ParameterError
 from synth.live import kernel, limiter, rolling_block
 from synth.live import state as st
-from synth.live.atomics import fence as _fence
+from synth.live.kernel import fence as _fence
 
 #: PortAudio's stream callback flags (portaudio.h) and its paContinue.
-PA_OUTPUT_UNDERFLOW = 0x4
-PA_OUTPUT_OVERFLOW = 0x8
-PA_CONTINUE = 0
+PA_OUTPUT_UNDERFLOW, PA_OUTPUT_OVERFLOW, PA_CONTINUE = 0x4, 0x8, 0
 
 #: The soft clipper's largest output: the largest float32 below full scale.
 CEILING = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
@@ -74,27 +71,23 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     ramped; ``limit``: most pulses transformed (-1: all). Returns the pulses transformed."""
     counters = st.i64_at(record[st.B_COUNTERS], kernel.N_COUNTERS)
     scalars = st.f64_at(record[st.B_SCALARS], st.N_SCALARS)
-    R = record[st.B_SLOTS]
-    state = st.i64_at(record[st.B_STATE], R)
+    state = st.i64_at(record[st.B_STATE], record[st.B_SLOTS])
     if counters[kernel.SILENCE] != 0:
         silence_body(ctl, record)
-    g0 = scalars[st.S_GAIN_NOW]
-    g1 = scalars[st.S_GAIN]
-    p0 = scalars[st.S_PAN_NOW]
-    p1 = scalars[st.S_PAN]  # one word: a pan set on another thread is read whole
-    busy = counters[kernel.BUSY_BLOCKS]
-    roller = ctl[st.ROLLER]
+    g0, g1 = scalars[st.S_GAIN_NOW], scalars[st.S_GAIN]
+    # one word each: a pan set on another thread is read whole
+    p0, p1 = scalars[st.S_PAN_NOW], scalars[st.S_PAN]
+    busy, roller = counters[kernel.BUSY_BLOCKS], ctl[st.ROLLER]
     rolling = roller != 0 and rolling_block.any_live(st.rolling_form(record)[0])
     waiting = counters[kernel.AWAKE] != 0
     if not waiting:
         # asleep: nothing to mix unless something was handed over
-        for i in range(R):
+        for i in range(state.shape[0]):
             if state[i] == kernel.READY or state[i] == kernel.PULSE:
                 waiting = True
                 break
         if not waiting and not rolling:
-            scalars[st.S_GAIN_NOW] = g1
-            scalars[st.S_PAN_NOW] = p1
+            scalars[st.S_GAIN_NOW], scalars[st.S_PAN_NOW] = g1, p1
             return 0
     out = scratch[0]
     for s in range(n):
@@ -113,8 +106,7 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
             left1, right1 = pan_gains(p1)
             _add_ramped(mix[1], out, g0 * left0, g1 * left1, n)
             _add_ramped(mix[2], out, g0 * right0, g1 * right1, n)
-    scalars[st.S_GAIN_NOW] = g1
-    scalars[st.S_PAN_NOW] = p1
+    scalars[st.S_GAIN_NOW], scalars[st.S_PAN_NOW] = g1, p1
     return pulses
 
 
@@ -122,16 +114,10 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
 def _share_budget(ctl, directory, bodies, allow, budget):
     """Share a callback's ``budget`` of pulse transforms among the bodies (``allow[b]``), in
     turn from ``SHARE_FROM``: the first left short is served first next time."""
-    start = ctl[st.SHARE_FROM]
-    if start >= bodies:
-        start = 0
-    left = budget
-    short = -1
-    deferred = 0
+    start = ctl[st.SHARE_FROM] if ctl[st.SHARE_FROM] < bodies else 0
+    left, short, deferred = budget, -1, 0
     for k in range(bodies):
-        b = start + k
-        if b >= bodies:
-            b -= bodies
+        b = start + k if start + k < bodies else start + k - bodies
         record = st.i64_at(directory[b], st.N_BODY)
         state = st.i64_at(record[st.B_STATE], record[st.B_SLOTS])
         waiting = 0
@@ -164,8 +150,7 @@ def soft_clip(v):
 def _limiter(ctl, channels):
     """The limiter's arrays (:meth:`~synth.live.limiter.LimiterState.arrays`) from ``ctl``."""
     ints = st.i64_at(ctl[st.LIM_INTS], limiter.N_INTS)
-    D = ints[limiter.I_DELAY]
-    A = ints[limiter.I_ATTACK]
+    D, A = ints[limiter.I_DELAY], ints[limiter.I_ATTACK]
     return (
         ints,
         st.f64_at(ctl[st.LIM_FLOATS], limiter.N_FLOATS),
@@ -182,21 +167,14 @@ def _limiter(ctl, channels):
 def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames into ``out[row:]`` (channel ``c``: ``mix[0] + mix[c +
     1]``, cleared): fades, master gain, meters, limiter, clipper, recording."""
-    channels = out.shape[1]
-    pos = ctl[st.FADE_AT]
-    length = ctl[st.FADE_LENGTH]
-    level = times[st.PAUSE_LEVEL]
+    channels, pos, length = out.shape[1], ctl[st.FADE_AT], ctl[st.FADE_LENGTH]
+    level, level_step = times[st.PAUSE_LEVEL], 1.0 / length
     target = 0.0 if ctl[st.PAUSE] != 0 else 1.0
-    level_step = 1.0 / length
     if pos == 0:
         ctl[st.FADE_FRAME] = ctl[st.FRAME]
-    g0 = times[st.MASTER_NOW]
-    g1 = times[st.MASTER_GAIN]
+    g0, g1 = times[st.MASTER_NOW], times[st.MASTER_GAIN]
     step = (g1 - g0) / n
-    peak = times[st.PEAK]
-    out_peak = times[st.OUT_PEAK]
-    clipped = 0
-    clip = ctl[st.CLIP] != 0
+    peak, out_peak, clipped, clip = times[st.PEAK], times[st.OUT_PEAK], 0, ctl[st.CLIP] != 0
     for s in range(n):
         g = g0 + step * (s + 1)
         if level != target:
@@ -214,9 +192,7 @@ def _write_block(ctl, times, mix, out, row, n):
         for c in range(channels):
             v = (common + mix[c + 1, s]) * g
             mix[c + 1, s] = v
-            a = abs(v)
-            if a > peak:
-                peak = a
+            peak = max(peak, abs(v))
     if ctl[st.LIMIT] != 0:
         limiter.limit_block(_limiter(ctl, channels), mix[1:], n)
     for s in range(n):
@@ -228,18 +204,13 @@ def _write_block(ctl, times, mix, out, row, n):
             if clip:
                 v = soft_clip(v)
             w = np.float32(v)
-            a = abs(w)
-            if a > out_peak:
-                out_peak = a
+            out_peak = max(out_peak, abs(w))
             out[row + s, c] = w
     ctl[st.FADE_AT] = pos
-    times[st.PAUSE_LEVEL] = level
-    times[st.MASTER_NOW] = g1
-    times[st.PEAK] = peak
-    times[st.OUT_PEAK] = out_peak
+    times[st.PAUSE_LEVEL], times[st.MASTER_NOW] = level, g1
+    times[st.PEAK], times[st.OUT_PEAK] = peak, out_peak
     ctl[st.CLIPPED] += clipped
-    cap = ctl[st.RECORD_FRAMES]
-    done = ctl[st.RECORDED]
+    cap, done = ctl[st.RECORD_FRAMES], ctl[st.RECORDED]
     if done < cap:
         m = min(n, cap - done)
         rec = numba.carray(st.pointer_to(ctl[st.RECORD]), (cap, channels), np.float32)
@@ -253,9 +224,7 @@ def _write_block(ctl, times, mix, out, row, n):
 def _mix_engine(ctl, out, budget):
     """Mix every body into ``out`` (float32 (frames, channels)) in pieces of ``MIX_CAP``
     frames, at most ``budget`` pulses transformed (-1: all); paused, silence."""
-    frames = out.shape[0]
-    cap = ctl[st.MIX_CAP]
-    times = st.f64_at(ctl[st.TIMES], st.N_TIMES)
+    frames, cap, times = out.shape[0], ctl[st.MIX_CAP], st.f64_at(ctl[st.TIMES], st.N_TIMES)
     mix = numba.carray(st.pointer_to(ctl[st.MIX]), (ctl[st.CHANNELS] + 1, cap), np.float64)
     scratch = numba.carray(st.pointer_to(ctl[st.SCRATCH]), (2, cap), np.float64)
     directory = st.i64_at(ctl[st.DIRECTORY], ctl[st.MAX_BODIES])
@@ -269,17 +238,15 @@ def _mix_engine(ctl, out, budget):
                 for c in range(out.shape[1]):
                     out[s, c] = 0.0
             return
-        n = min(cap, frames - done)
-        t0 = ctl[st.FRAME]
-        bodies = ctl[st.N_BODIES]
+        n, t0, bodies = min(cap, frames - done), ctl[st.FRAME], ctl[st.N_BODIES]
         _fence()  # the records of the bodies counted are complete
         if budget >= 0 and shared < 0:  # once a call: the budget is the callback's
             _share_budget(ctl, directory, bodies, allow, budget)
             shared = bodies
         for b in range(bodies):
             record = st.i64_at(directory[b], st.N_BODY)
-            limit = -1
-            if budget >= 0:  # a body added after the share waits for the next call
+            limit = -1  # a body added after the share waits for the next call
+            if budget >= 0:
                 limit = allow[b] if b < shared else 0
             pulses = _mix_one_body(ctl, record, scratch, mix, t0, n, limit)
             if budget >= 0:
@@ -305,23 +272,18 @@ def _run_block(ctl, out, flags, current, dac, entry_ns, device):
     """One block, and for a stream's callback (``device``) its accounting: PortAudio's
     ``flags``, gaps, the clock's anchor (the first frame leaves ``dac - current`` s after
     ``entry_ns`` plus the look-ahead) and the run time as a fraction of the block."""
-    times = st.f64_at(ctl[st.TIMES], st.N_TIMES)
-    frames = out.shape[0]
+    times, frames = st.f64_at(ctl[st.TIMES], st.N_TIMES), out.shape[0]
     if device:
         if flags & PA_OUTPUT_UNDERFLOW:
             ctl[st.UNDERFLOWS] += 1
         if flags & PA_OUTPUT_OVERFLOW:
             ctl[st.OVERFLOWS] += 1
-        if dac > 0.0 and current > 0.0 and dac >= current:
-            lead = dac - current
-        else:
-            lead = times[st.NOMINAL_LATENCY]
-        times[st.LEAD] = lead
+        measured = dac > 0.0 and current > 0.0 and dac >= current
+        lead = times[st.LEAD] = dac - current if measured else times[st.NOMINAL_LATENCY]
         now = entry_ns * 1e-9
         if times[st.LAST_ENTRY] > 0.0:
             gap = (now - times[st.LAST_ENTRY]) * times[st.SAMPLERATE] / max(frames, 1)
-            if gap > times[st.GAP_MAX]:
-                times[st.GAP_MAX] = gap
+            times[st.GAP_MAX] = max(times[st.GAP_MAX], gap)
         times[st.LAST_ENTRY] = now
         ctl[st.SEQ] += 1
         _fence()
@@ -333,17 +295,13 @@ def _run_block(ctl, out, flags, current, dac, entry_ns, device):
     before = _transformed(ctl)
     _mix_engine(ctl, out, budget)
     if device:
-        transforms = _transformed(ctl) - before
-        if transforms > ctl[st.TRANSFORMS_MAX]:
-            ctl[st.TRANSFORMS_MAX] = transforms
+        ctl[st.TRANSFORMS_MAX] = max(ctl[st.TRANSFORMS_MAX], _transformed(ctl) - before)
         end = st.monotonic_ns()
-        times[st.END_TIME] = end * 1e-9
-        times[st.END_FRAME] = ctl[st.FRAME]
+        times[st.END_TIME], times[st.END_FRAME] = end * 1e-9, ctl[st.FRAME]
         cost = (end - entry_ns) * 1e-9 * times[st.SAMPLERATE] / max(frames, 1)
         times[st.COST_LAST] = cost
         times[st.COST_SUM] += cost
-        if cost > times[st.COST_MAX]:
-            times[st.COST_MAX] = cost
+        times[st.COST_MAX] = max(times[st.COST_MAX], cost)
         ctl[st.CALLBACKS] += 1
 
 
@@ -359,24 +317,25 @@ def _callback(input, output, frames, time_info, flags, userdata):
     ctl = numba.carray(userdata, st.N_CTL, np.int64)
     out = numba.carray(output, (np.int64(frames), ctl[st.CHANNELS]), np.float32)
     device = st.address_of(time_info) != 0
-    current = 0.0
-    dac = 0.0
+    current = dac = 0.0
     if device:
         info = numba.carray(time_info, 3, np.float64)  # adc time, current time, dac time
-        current = info[1]
-        dac = info[2]
+        current, dac = info[1], info[2]
     _run_block(ctl, out, np.int64(flags), current, dac, entry, device)
     return PA_CONTINUE
+
+
+def _c_function(function, signature):
+    """``function`` compiled (or loaded from the disk cache) as a C function."""
+    with cfunc_compiling(function, signature):
+        return numba.cfunc(signature, nopython=True, cache=True, fastmath=FASTMATH)(function)
 
 
 @functools.cache
 def stream_callback():
     """The compiled :func:`_callback`, the block's only compiled entry (Python calls it too):
     numba compiles a kernel's tree again into each caller compiled on its own."""
-    with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
-        return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
-            _callback
-        )
+    return _c_function(_callback, CALLBACK_SIGNATURE)
 
 
 ROLLER_SIGNATURE = types.int64(types.int64, types.int64, types.int64, types.int64)
@@ -384,51 +343,23 @@ ROLLER_SIGNATURE = types.int64(types.int64, types.int64, types.int64, types.int6
 
 def _roll_body(ctl_address, record_address, out_address, n):
     """A body's rolling voices over ``n`` frames added into its mix; 1 if one rang."""
-    ctl = st.i64_at(ctl_address, st.N_CTL)
-    record = st.i64_at(record_address, st.N_BODY)
-    out = st.f64_at(out_address, n)
-    if rolling_block.mix_rolls(out, n, ctl[st.FRAME], st.rolling_form(record), st.event_ring(ctl)):
-        return 1
-    return 0
+    ctl, record = st.i64_at(ctl_address, st.N_CTL), st.i64_at(record_address, st.N_BODY)
+    out, form, events = st.f64_at(out_address, n), st.rolling_form(record), st.event_ring(ctl)
+    return 1 if rolling_block.mix_rolls(out, n, ctl[st.FRAME], form, events) else 0
 
 
 @functools.cache
 def rolling_block_code():
     """The compiled :func:`_roll_body`: apart, so an engine without rolling slots never
     compiles the rolling integrator (the largest kernel)."""
-    with cfunc_compiling(_roll_body, ROLLER_SIGNATURE):
-        return numba.cfunc(ROLLER_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
-            _roll_body
-        )
-
-
-def check_block(ctl: np.ndarray, out) -> None:
-    """``out`` checked: a writeable C-contiguous float32 (frames, channels) array."""
-    channels = int(ctl[st.CHANNELS])
-    if not (
-        isinstance(out, np.ndarray)
-        and out.dtype == np.float32
-        and out.ndim == 2
-        and out.shape[1] == channels
-        and out.flags.c_contiguous
-        and out.flags.writeable
-    ):
-        raise ParameterError(
-            f"out={type(out).__name__} {getattr(out, 'dtype', '')} {getattr(out, 'shape', '')} "
-            f"must be a writeable C-contiguous float32 array of shape (frames, {channels})"
-        )
+    return _c_function(_roll_body, ROLLER_SIGNATURE)
 
 
 def mix_engine(ctl: np.ndarray, out: np.ndarray, flags: int = 0, time_info=None) -> None:
-    """Mix the next frames into ``out`` with the compiled callback; with ``time_info``
-    (float64 adc, current and dac times, s; the Python fallback's) and PortAudio's ``flags``,
-    the device's accounting too."""
-    check_block(ctl, out)
-    info = None
-    if time_info is not None:
-        if time_info.dtype != np.float64 or time_info.shape != (3,):
-            raise ValueError(f"time_info {time_info.dtype} {time_info.shape} must be float64 (3,)")
-        info = time_info.ctypes.data
+    """Mix the next frames into ``out`` (checked by the caller) with the compiled callback;
+    with ``time_info`` (float64 adc, current and dac times, s; the Python fallback's) and
+    PortAudio's ``flags``, the device's accounting too."""
+    info = None if time_info is None else time_info.ctypes.data
     stream_callback().ctypes(None, out.ctypes.data, out.shape[0], info, flags, ctl.ctypes.data)
 
 
@@ -449,7 +380,7 @@ def silence_body(ctl, record):
 def warm_up(rolling: bool = False) -> None:
     """Compile (or load) all the audio thread runs, on a one-mode body with a pulse handed
     over, so that no callback compiles; with ``rolling``, the rolling block too."""
-    from synth.live.queue import PendingRing
+    from synth.live.voice import PendingRing
     from synth.sound.modal_bank import bank_coefficients
 
     fs = 48000

@@ -12,10 +12,9 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
-from synth.live import heard as hd
 from synth.live import kernel
 from synth.live import rolling_block as rb
-from synth.live.atomics import publish
+from synth.live.kernel import publish
 from synth.live.voice import check_gain, stop_frames
 from synth.physics.path import edge_distance
 from synth.physics.rolling import Roller
@@ -70,17 +69,14 @@ class RollingVoice:
     more than ``MAX_STEPS_PER_SAMPLE`` steps a sample (``"failed"``). Figures: its first ear's."""
 
     def __init__(self, body, vid: int, slots: list[int], direction: tuple[float, float]):
-        self.body = body
-        self.id = vid
+        self.body, self.id, self._direction = body, vid, direction
         self._slots = tuple(zip(body._ears, slots))  # (ear, its slot) of each ear
-        self._direction = direction
         # the body's: between the game's threads updating its voices and taking its slots
         self._lock = body._roll_lock
-        rolls = body._rolls
-        self._ints = rolls["roll_ints"][slots[0]]  # its contact's scalars (kept after the end)
+        self._ints = body._rolls["roll_ints"][slots[0]]  # its contact's (kept after the end)
         self._ear_ints = [ear._rolls["roll_ints"][r] for ear, r in self._slots]
         self._floats = [ear._rolls["roll_floats"][r] for ear, r in self._slots]
-        self._state = rolls["roll_y"][slots[0]]
+        self._state = body._rolls["roll_y"][slots[0]]
 
     def _holds(self, ear: int) -> bool:
         """Whether the voice still holds its slot at ear ``ear`` (ears may free it apart)."""
@@ -93,12 +89,8 @@ class RollingVoice:
     @property
     def playing(self) -> bool:
         """Whether it still rolls or fades (read from the audio thread's state, no lock)."""
-        ints = self._ints
-        return (
-            not self.body._freed
-            and int(ints[rb.I_STATE]) == rb.LIVE
-            and int(ints[rb.I_ID]) == self.id
-        )
+        i = self._ints
+        return not self.body._freed and int(i[rb.I_STATE]) == rb.LIVE and int(i[rb.I_ID]) == self.id
 
     @property
     def path_position(self) -> float:
@@ -133,8 +125,7 @@ class RollingVoice:
         """The ball's centre is now above ``position`` ((x, y), m), moving at ``velocity``
         ((vx, vy), m/s, at most :data:`MAX_ROLL_SPEED`; at rest it keeps its direction):
         from the next block it rolls from there along that direction."""
-        plate = self.body.plate
-        x, y = plate.check_position(position, "position")
+        x, y = self.body.plate.check_position(position, "position")
         speed, ux, uy = _velocity(velocity)
         with self._lock:
             if speed > 0.0:
@@ -149,17 +140,14 @@ class RollingVoice:
         if any(ear._rolls is None for ear in body._ears):  # the body left its engine
             return
         ux, uy = self._direction
-        plate = body.plate
-        step = body._roll_step
-        rows_cap = body._rolls["roll_rows"]
+        plate, step, rows_cap = body.plate, body._roll_step, body._rolls["roll_rows"]
         back = min(MARGIN, max(edge_distance(plate, (x, y), (-ux, -uy)), 0.0))
         ahead = min(speed * HORIZON + MARGIN, max(edge_distance(plate, (x, y), (ux, uy)), 0.0))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
         if not self._holds(0):  # ended: its slots may be another voice's
             return
         tables = {}  # by the ear's rendered modes (the same for ears of one plate)
-        contact = self._ints
-        b = int(contact[rb.I_BACK])
+        contact, b = self._ints, int(self._ints[rb.I_BACK])
         for ear, r in self._slots:
             key = (id(ear._model.modes), ear._model.rendered.tobytes())
             if key not in tables:
@@ -219,8 +207,7 @@ class RollOptions:
 def start_roll(body, ball, position, velocity, **options) -> RollingVoice | None:
     """:meth:`synth.live.Body.roll` (see there; ``options``: :class:`RollOptions`)."""
     o = RollOptions(**options)
-    envelope = o.envelope
-    engine = body._engine
+    envelope, engine = o.envelope, body._engine
     if body._removed:
         raise SynthError("this body was removed from its engine (Body.remove): add it again")
     engine._check_open("roll a ball")
@@ -279,19 +266,16 @@ def _take_slots(body) -> list[int] | None:
 
 def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
     """Write the contact of slot ``r`` at ``body``'s first ear (unpublished)."""
-    arrays = body._rolls
-    fs = body._engine.samplerate
+    arrays, fs = body._rolls, body._engine.samplerate
     coef_env = np.ascontiguousarray(envelope.coefficients, dtype=float)
     offsets = np.ascontiguousarray(envelope.contact_offsets, dtype=float)
     body._roll_holds[r] = (envelope, coef_env, offsets)  # alive while the slot reads them
     state = roller.initial_state(speed, s0)
     fv = arrays["roll_floats"][r]
     fv[rb.F_M : rb.F_HMAX + 1] = roller.constants
-    fv[rb.F_DX] = envelope.spacing
-    fv[rb.F_LENGTH] = envelope.length
-    fv[rb.F_H] = state.step
-    fv[rb.F_ANCHOR] = s0
-    fv[rb.F_PREVIOUS] = fv[rb.F_SPEED] = fv[rb.F_BEFORE] = 0.0
+    fv[[rb.F_DX, rb.F_LENGTH, rb.F_H, rb.F_ANCHOR]] = (envelope.spacing, envelope.length,
+                                                        state.step, s0)  # fmt: skip
+    fv[[rb.F_PREVIOUS, rb.F_SPEED, rb.F_BEFORE]] = 0.0
     arrays["roll_y"][r] = state.vector
     fade = max(1, int(round(body._engine.options.fade * fs)))
     values = {
@@ -306,20 +290,17 @@ def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
 def _fill_slot(body, r, lead, gain) -> None:
     """Write slot ``r`` at the ear ``body``: gain, modes at rest, coefficients and the
     addresses of its contact at the first ear ``lead`` (unpublished)."""
-    arrays = body._rolls
-    fs = body._engine.samplerate
+    arrays, fs = body._rolls, body._engine.samplerate
     fv = arrays["roll_floats"][r]
     fv[rb.F_GAIN] = fv[rb.F_GAIN_NOW] = gain
     arrays["roll_z"][r] = 0.0
     with body._move_lock:  # the listener's gains and their sequence number together
         model = body._model
-        heard_seq = int(body._heard_seq[hd.SEQ_PUT])
+        heard_seq = int(body._heard_seq[kernel.SEQ_PUT])
         gains = np.asarray(model.output, dtype=complex)
     accelerometer = model.listener.shape is not None
     p = np.asarray(model.poles, dtype=complex)
-    hold = (np.exp(p / fs) - 1.0) / p
-    q = -1.0 / p
-    step = np.exp(p / fs)
+    hold, q, step = (np.exp(p / fs) - 1.0) / p, -1.0 / p, np.exp(p / fs)
     coef = arrays["roll_coef"][r]
     coef[:] = 0.0
     rows = {rb.C_ER: step.real, rb.C_EI: step.imag, rb.C_HR: hold.real, rb.C_HI: hold.imag,

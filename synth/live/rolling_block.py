@@ -19,9 +19,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from synth.compilation import compiled
-from synth.live.atomics import fence, pointer_to
-from synth.live.heard import HPI, HPR, SEQ_PUT
-from synth.live.kernel import EVENT_EARS, post_event
+from synth.live.kernel import EVENT_EARS, HPI, HPR, SEQ_PUT, fence, pointer_to, post_event
 from synth.physics import rolling_kernels
 from synth.physics.rolling_kernels import N_STATE, Constants, roll, touching_points
 from synth.sound.modal_bank.pulse import response_per_transform
@@ -155,11 +153,9 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
             i = rows - 2
         t = u - i
         F = force[j]
-        wa = (1.0 - t) * F
-        wb = t * F
-        row_a = table[i]
-        row_b = table[i + 1]
-        w = (j + 1.0) / n  # the listener's ramp, as the body's impact voices' (heard.py)
+        wa, wb = (1.0 - t) * F, t * F
+        row_a, row_b = table[i], table[i + 1]
+        w = (j + 1.0) / n  # the listener's ramp, as the body's impact voices' (kernel.py)
         moved = _heard_change(coef, zr, zi) if ramp else 0.0
         acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi) + w * moved
         if direct:
@@ -169,8 +165,7 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
                 da1 = _direct_weights(coef[C_DT], row_a) if ramp else da0
                 db1 = _direct_weights(coef[C_DT], row_b) if ramp else db0
                 weights = i
-            da = da0 + w * (da1 - da0)
-            db = db0 + w * (db1 - db0)
+            da, db = da0 + w * (da1 - da0), db0 + w * (db1 - db0)
             acc += 0.5 * (F + previous) * ((1.0 - t) * da + t * db)
             previous = F
         g = gain0 + g_step * (j + 1)
@@ -190,8 +185,7 @@ def _take_heard(iv, coef, heard, seq):
         return False
     fence()  # the gains after their sequence number
     for k in range(coef.shape[1]):
-        gr = heard[HPR, k]
-        gi = heard[HPI, k]
+        gr, gi = heard[HPR, k], heard[HPI, k]
         coef[C_TR, k] = gr * coef[C_OR, k] - gi * coef[C_OI, k]
         coef[C_TI, k] = gr * coef[C_OI, k] + gi * coef[C_OR, k]
         coef[C_DT, k] = gr * coef[C_AR, k] - gi * coef[C_AI, k]
@@ -250,9 +244,7 @@ def _contact_coordinates(centre, speed, fs, offsets, dx, anchor):
 @compiled(nogil=True, inline="always")
 def _start_fade(cv, t0, length, why):
     """The voice fades from frame ``t0`` over ``length`` frames, ended ``why`` (END_*)."""
-    cv[I_FADE_FROM] = t0
-    cv[I_FADE_LEN] = max(length, 1)
-    cv[I_ENDED] = why
+    cv[I_FADE_FROM], cv[I_FADE_LEN], cv[I_ENDED] = t0, max(length, 1), why
 
 
 @compiled(nogil=True, inline="always")
@@ -267,8 +259,7 @@ def _hold_still(cf, y, buf, n):
 def _roll_contact(n, t0, cv, cf, y, buf, speed):
     """Roll a voice's contact (``cv``, ``cf``, state ``y``) over ``n`` frames from ``t0`` at
     ``speed`` (m/s) into ``buf``; its fade started if stopped, leaving the envelope or failed."""
-    cv[I_BLOCK] = t0
-    cf[F_BEFORE] = cf[F_PREVIOUS]
+    cv[I_BLOCK], cf[F_BEFORE] = t0, cf[F_PREVIOUS]
     if cv[I_STOP] >= 0 and cv[I_FADE_FROM] < 0:
         _start_fade(cv, t0, cv[I_STOP], END_STOPPED)
     fs = cf[F_FS]
@@ -300,8 +291,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
             speed = 0.0
     offsets = numba.carray(pointer_to(cv[I_OFF]), cv[I_OFF_N], np.float64)
     _contact_coordinates(buf[W_CENTRE, :n], speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
-    cf[F_PREVIOUS] = force[n - 1]
-    cf[F_SPEED] = speed
+    cf[F_PREVIOUS], cf[F_SPEED] = force[n - 1], speed
     cv[I_FRAMES] += n
 
 
@@ -317,13 +307,9 @@ def _roll_slot(out, n, t0, iv, fv, z, coef, tables, meta, heard, seq, events, fr
         _take_update(cv, cf, y)
         _roll_contact(n, t0, cv, cf, y, buf, meta[cv[I_FRONT], M_SPEED])
     ramp = _take_heard(iv, coef, heard, seq)
-    front = cv[I_FRONT]
-    m = meta[front]
-    table = tables[front]
-    rows = int(m[M_ROWS])
-    start, step = m[M_START], m[M_STEP]
-    force, coordinate = buf[W_FORCE], buf[W_CENTRE]
-    zr, zi = z[0], z[1]
+    m, table = meta[cv[I_FRONT]], tables[cv[I_FRONT]]
+    rows, start, step = int(m[M_ROWS]), m[M_START], m[M_STEP]
+    force, coordinate, zr, zi = buf[W_FORCE], buf[W_CENTRE], z[0], z[1]
     previous = cf[F_BEFORE]
     if iv[I_STARTED] == 0:
         previous = force[0]  # the plate starts loaded with it (as the offline preload)
@@ -347,16 +333,14 @@ def _roll_slot(out, n, t0, iv, fv, z, coef, tables, meta, heard, seq, events, fr
 def _reach_heard(coef):
     """The listener's target reached at a ramp's end."""
     for k in range(coef.shape[1]):
-        coef[C_LR, k] = coef[C_TR, k]
-        coef[C_LI, k] = coef[C_TI, k]
-        coef[C_D, k] = coef[C_DT, k]
+        coef[C_LR, k], coef[C_LI, k], coef[C_D, k] = coef[C_TR, k], coef[C_TI, k], coef[C_DT, k]
 
 
 @compiled(nogil=True, inline="always")
 def _end_slot(iv, events):
     """A slot faded out: free it and post its voice's end at its ear."""
     vid = iv[I_ID]
-    fence()
+    fence()  # done with the slot before the game's thread may take it
     iv[I_STATE] = FREE
     post_event(events, vid * EVENT_EARS + iv[I_EARS])
 

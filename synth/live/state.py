@@ -23,8 +23,7 @@ from synth import checks
 from synth.compilation import compiled
 from synth.errors import ParameterError
 from synth.live import kernel, rolling_block
-from synth.live.atomics import pointer_to as pointer_to
-from synth.live.heard import N_HEARD_ROWS, heard_arrays
+from synth.live.kernel import N_HEARD_ROWS, heard_arrays, pointer_to
 from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
 from synth.live.rolling import MAX_ROLLS
 from synth.live.voice import MAX_VOICES, STEAL_FADE, check_int, closed
@@ -144,11 +143,8 @@ BodyForm = namedtuple(
 def body_form(record):
     """The :class:`BodyForm` of a body's ``record``: views of its arrays as the kernels take
     them (no copy)."""
-    K = record[B_MODES]
-    R = record[B_SLOTS]
-    C = record[B_CONTACT]
-    P = record[B_PULSE_SAMPLES]
-    V = record[B_N_VOICE_SLOTS]
+    K, R, C, P = record[B_MODES], record[B_SLOTS], record[B_CONTACT], record[B_PULSE_SAMPLES]
+    V, N = record[B_N_VOICE_SLOTS], record[B_N_RECORDS]
     scalars = f64_at(record[B_SCALARS], N_SCALARS)
     bank = (
         numba.carray(pointer_to(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
@@ -197,7 +193,6 @@ def body_form(record):
         i64_at(record[B_POINTS], R),
         numba.carray(pointer_to(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
     )
-    N = record[B_N_RECORDS]
     voice_form = (
         numba.carray(pointer_to(record[B_VOICES]), (N, kernel.N_VOICE_FIELDS), np.int64),
         f64_at(record[B_VOICE_GAIN], N),
@@ -207,17 +202,14 @@ def body_form(record):
     )
     counters = i64_at(record[B_COUNTERS], kernel.N_COUNTERS)
     transformed = i64_at(record[B_TRANSFORMED], 1)
-    return BodyForm(bank, modal, ring, transform, pulse_form, voice_form, counters,
-                    transformed, scalars[S_FLOOR])  # fmt: skip
+    return BodyForm(bank, modal, ring, transform, pulse_form, voice_form, counters, transformed,
+                    scalars[S_FLOOR])  # fmt: skip
 
 
 @compiled(nogil=True, inline="always")
 def rolling_form(record):
     """Views of a body's rolling slots and gains, as :func:`rolling_block.mix_rolls` takes them."""
-    R = record[B_N_ROLLS]
-    K = record[B_MODES]
-    P = record[B_ROLL_ROWS]
-    N = rolling_block.N_STATE
+    R, K, P, N = record[B_N_ROLLS], record[B_MODES], record[B_ROLL_ROWS], rolling_block.N_STATE
     return (
         numba.carray(pointer_to(record[B_ROLL_INTS]), (R, rolling_block.N_INTS), np.int64),
         numba.carray(pointer_to(record[B_ROLL_FLOATS]), (R, rolling_block.N_FLOATS), np.float64),
@@ -414,12 +406,10 @@ class EngineState:
         record_frames = int(round(o.record_seconds * fs))
         self.floor = 10.0 ** (o.floor_db / 20.0)
         self.steal_frames = o.frames(STEAL_FADE)
-        self.ctl = np.zeros(N_CTL, dtype=np.int64)
-        self.times = np.zeros(N_TIMES)
-        self.directory = np.zeros(o.max_bodies, dtype=np.int64)
-        self.allow = np.zeros(o.max_bodies, dtype=np.int64)
-        self.mix = np.zeros((channels + 1, mix_frames))
-        self.scratch = np.zeros((2, mix_frames))
+        self.ctl, self.times = np.zeros(N_CTL, dtype=np.int64), np.zeros(N_TIMES)
+        # the body records' addresses, and each body's share of a callback's pulse transforms
+        self.directory, self.allow = np.zeros((2, o.max_bodies), dtype=np.int64)
+        self.mix, self.scratch = np.zeros((channels + 1, mix_frames)), np.zeros((2, mix_frames))
         # the voice-ended events: the kernel's header, then a ring of ``events``
         self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
@@ -484,13 +474,12 @@ class EngineState:
 
     def body_arrays(self, coefficients, gains, ring, settings: BodySettings, rolls=None) -> dict:
         """A body's arrays and sizes by :data:`BODY_FIELDS` name: its bank ``coefficients``,
-        the listener's complex ``gains`` (K,), its pending ``ring`` (:mod:`synth.live.queue`),
+        the listener's complex ``gains`` (K,), its pending ``ring`` (:mod:`synth.live.voice`),
         ``settings`` and rolling slots (None: none)."""
         from synth.sound.modal_bank import power_table, transform_workspace
 
         c, s = coefficients, settings
-        fs = float(c.samplerate)
-        K = c.poles.size
+        fs, K = float(c.samplerate), c.poles.size
         poles = np.ascontiguousarray(c.poles, dtype=np.complex128)
         heard, heard_seq = heard_arrays(np.asarray(gains, dtype=complex))
         voice_slots = np.zeros((s.voices, kernel.N_SLOT_FIELDS), dtype=np.int64)
@@ -501,8 +490,7 @@ class EngineState:
         scalars = np.zeros(N_SCALARS)
         fields = [S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW]
         scalars[fields] = (fs, self.floor, c.sigma_max, 1.0 / fs, s.gain, s.gain, s.pan, s.pan)
-        work = transform_workspace(K)
-        table = power_table(poles, fs)
+        work, table = transform_workspace(K), power_table(poles, fs)
         if rolls is None:
             rolls = rolling_block.rolling_arrays(0, K, 2, 1)
         return rolls | kernel.body_state(K, s.voices) | dict(
@@ -536,10 +524,6 @@ class EngineState:
     def left(self, progress: tuple[int, int]) -> bool:
         """Whether every block that may have read the entry :meth:`vacate` changed has ended."""
         return int(self.ctl[FRAME]) > progress[0] or int(self.ctl[CALLBACKS]) > progress[1]
-
-    def release(self, index: int) -> None:
-        """Let go of body ``index``'s arrays (vacated and left); its entry is free again."""
-        self.records[index] = None
 
     def anchor(self) -> tuple[int, float, float]:
         """The last callback's first frame, the monotonic time (s) it leaves the device and the
