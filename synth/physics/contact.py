@@ -153,12 +153,12 @@ class ImpactResult:
             raise ParameterError(
                 f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
             )
-        s = np.empty(total)
-        s[:points] = np.arange(points) * float(step)
-        s[points:] = float(offset) + np.arange(samples) * float(period)
-        s /= self._dense.theta
-        self._force_and_slope(s, out[0, :total], out[1, :total])
+        self._pulse_force_slope(float(step), points, float(offset), float(period), samples, out)
         return out[0, :total], out[1, :total]
+
+    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
+        """:meth:`pulse_samples` into ``out`` in one compiled call."""
+        _k.pulse_force_slope(self._dense, step, points, offset, period, samples, out)
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Force (N) and its rate (N/s) at times ``t`` (s from first touch); 0 outside."""
@@ -237,6 +237,15 @@ class ShellImpactResult(ImpactResult):
 
     _force_slope = staticmethod(_shell.shell_force_slope)
 
+    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
+        """:meth:`pulse_samples` into ``out`` from the shell kernel's dense output."""
+        total = points + samples
+        s = np.empty(total)
+        s[:points] = np.arange(points) * step
+        s[points:] = offset + np.arange(samples) * period
+        s /= self._dense.theta
+        self._force_and_slope(s, out[0, :total], out[1, :total])
+
 
 def _solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, local_tol, n_points) -> ShellImpactResult:
     """One impact of the thin-shell ``law`` (SI) to the local tolerance ``local_tol``."""
@@ -282,15 +291,19 @@ def solve_contact(  # noqa: PLR0913 (the public keyword API)
         mass=mass, stiffness=stiffness, exponent=exponent, dissipation=dissipation,
         gravity=gravity, rtol=rtol, n_points=n_points, method=method, viscous_time=viscous_time,
     )  # fmt: skip
-    losses = (admittance, gravity, dissipation, viscous_time)
-    # plain floats inside their ranges (the usual call) skip the checks
+    # plain floats inside their ranges (the usual call) skip the checks; written out, as a
+    # generator's call would cost more than the impact's own Python
     if (
-        all(type(v) is float for v in (mass, stiffness, exponent, rtol, *losses))
+        type(mass) is type(stiffness) is type(exponent) is type(rtol) is float
+        and type(admittance) is type(gravity) is type(dissipation) is type(viscous_time) is float
         and type(n_points) is int
         and type(method) is str
         and 0.0 < mass < _INF
         and 0.0 < stiffness < _INF
-        and all(0.0 <= v < _INF for v in losses)
+        and 0.0 <= admittance < _INF
+        and 0.0 <= gravity < _INF
+        and 0.0 <= dissipation < _INF
+        and 0.0 <= viscous_time < _INF
         and 1.0 < exponent <= 4.0
         and (viscous_time == 0.0 or exponent == 1.5)
         and 1e-12 <= rtol <= 0.1

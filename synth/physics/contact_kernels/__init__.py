@@ -335,6 +335,25 @@ def result(e, P, sc, stiff):
 
 
 @compiled()
+def pulse_force_slope(d, step, points, offset, period, samples, out):
+    """Force (N) and rate (N/s) into ``out`` at times ``j step`` (s, ``j < points``), then
+    ``offset + m period`` (s, ``m < samples``), in one call (a pulse per impact)."""
+    total = points + samples
+    s = np.empty(total)
+    for j in range(points):
+        s[j] = j * step / d.theta
+    for m in range(samples):
+        s[points + m] = (offset + m * period) / d.theta
+    forces = out[0, :total]
+    slopes = out[1, :total]
+    force_slope_at(d, s, forces, slopes)
+    rate = d.f_scale / d.theta
+    for i in range(total):
+        forces[i] *= d.f_scale
+        slopes[i] *= rate
+
+
+@compiled()
 def force_slope_at(d, s, out, slope):
     """Dimensionless force at times ``s`` from dense output ``d``, 0 outside ``(0,
     s_contact]``, into ``out``; its rate ``f_x x' + f_w w'`` into ``slope``."""
