@@ -122,11 +122,9 @@ def yield_law_arrays(x, xy, xm, a, r, da, dr):
 
 @compiled()
 def elastic_terms(x, n, b, xy, xm):
-    """``(a, r, da, dr)`` at ``x > 0`` (:func:`yield_law`'s with a finite ``xy``). ``xy`` None
-    prunes the yield code at compile time: numba prunes on an argument's type."""
-    if xy is not None:
-        if xy != math.inf:
-            return yield_law(x, xy, xm)
+    """``(a, r, da, dr)`` at ``x > 0`` (:func:`yield_law`'s with a finite ``xy``)."""
+    if xy != math.inf:
+        return yield_law(x, xy, xm)
     a = power(x, n)
     if b == 0.0:
         return a, 0.0, n * a / x, 0.0
@@ -135,7 +133,7 @@ def elastic_terms(x, n, b, xy, xm):
 
 
 @compiled()
-def force(x, w, lam, n, c, b, xy=None, xm=0.0):
+def force(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
     """Dimensionless contact force f and its elastic part a (0 out of contact)."""
     if x <= 0.0:
         return 0.0, 0.0
