@@ -572,7 +572,7 @@ def test_a_shell_result_keeps_its_class_with_another_message():
     # the edge iteration reports its best solution with a new message (with_message): a
     # hollow ball's result must keep its own pulse (it failed before: the power laws' pulse
     # kernel read the shell's dense output)
-    from synth.physics.contact_result import with_message
+    from synth.physics.contact import with_message
 
     r = solve_impact(_ball(), RIGID, 1.0)
     copy = with_message(r, "another message")

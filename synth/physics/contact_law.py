@@ -14,20 +14,27 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, contact_surface, has_contact_surface
 from synth.physics.materials import get as get_material
-from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, HollowBall, Plate
+from synth.physics.scene import (
+    CONTACT_LAWS,
+    LAW_OPTIONS,
+    SURFACE_MODELS,
+    Ball,
+    HollowBall,
+    Plate,
+)
 
 
-def effective_modulus(ball: Ball, plate: Plate) -> float:
-    """Contact modulus ``E*`` with ``1/E* = 1/E'_ball + 1/E'_plate``, Pa."""
-    return 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate.material.effective_modulus)
+def effective_modulus(ball: Ball, plate: Plate, transverse_ratio: float = 1.0) -> float:
+    """Contact modulus ``E*`` with ``1/E* = 1/E'_ball + 1/E'_plate``, Pa, the plate's modulus
+    times ``transverse_ratio`` (dimensionless)."""
+    plate_modulus = transverse_ratio * plate.material.effective_modulus
+    return 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate_modulus)
 
 
 def hertz_stiffness(ball: Ball, plate: Plate, transverse_ratio: float = 1.0) -> float:
     """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5,
-    the plate's modulus times ``transverse_ratio`` (dimensionless)."""
-    plate_modulus = transverse_ratio * plate.material.effective_modulus
-    e_star = 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate_modulus)
-    return 4.0 / 3.0 * math.sqrt(ball.radius) * e_star
+    ``E*`` as :func:`effective_modulus`'s."""
+    return 4.0 / 3.0 * math.sqrt(ball.radius) * effective_modulus(ball, plate, transverse_ratio)
 
 
 def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -> float:
@@ -168,11 +175,10 @@ def material_viscous_time(
     omega_c`` at :data:`LOSS_REFERENCE_SPEED`, compliances adding, ``A = E* sum_i A_i / E'_i``.
     ``plate_share`` (s) replaces the plate's term (None: its material's)."""
     K = hertz_stiffness(ball, plate, transverse_ratio)
-    tau_c = hertz_contact_time(ball.mass, K, LOSS_REFERENCE_SPEED)
-    omega_c = math.pi / tau_c
+    omega_c = math.pi / hertz_contact_time(ball.mass, K, LOSS_REFERENCE_SPEED)
     ball_modulus = ball.material.effective_modulus
     plate_modulus = transverse_ratio * plate.material.effective_modulus
-    e_star = 1.0 / (1.0 / ball_modulus + 1.0 / plate_modulus)
+    e_star = effective_modulus(ball, plate, transverse_ratio)
     ball_term = e_star / ball_modulus * _contact_loss_factor(ball, "ball", omega_c) / omega_c
     if plate_share is None:
         plate_share = (
@@ -238,14 +244,11 @@ def _measured_law(ball: Ball, plate: Plate, surface: str) -> ContactLaw:
     return ContactLaw(K, 1.5, mu, A, yield_penetration=yield_penetration(ball, plate, K))
 
 
-#: The parameters of :func:`contact_parameters`, and those each named law requires.
-LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
-_REQUIRED = {
-    "hertz": (),
-    "hunt-crossley": ("dissipation",),
-    "viscoelastic": ("viscous_time",),
-    "elastic-foundation": (),
-    "power-law": ("exponent", "stiffness"),
+#: The parameters each named law requires, and what they are (the others require none).
+_NEEDS = {
+    "hunt-crossley": (("dissipation",), "mu, s/m, > 0"),
+    "viscoelastic": (("viscous_time",), "A, s, > 0"),
+    "power-law": (("exponent", "stiffness"), "n and K_n, N/m^n"),
 }
 
 
@@ -273,15 +276,14 @@ def contact_parameters(
     if surface in ("fitted", "material"):
         _check_surface_alone(surface, contact, given)
         return _measured_law(ball, plate, surface)
-    allowed = _REQUIRED[contact] + (("layer_depth",) if contact == "elastic-foundation" else ())
+    needs, what = _NEEDS.get(contact, ((), ""))
+    allowed = needs + (("layer_depth",) if contact == "elastic-foundation" else ())
     for key, value in given.items():
         if value is not None and key not in allowed:
             raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
-    missing = [key for key in _REQUIRED[contact] if given[key] is None]
+    missing = [key for key in needs if given[key] is None]
     if missing:
-        raise ParameterError(
-            f"contact={contact!r} needs {' and '.join(missing)} ({_NEEDS[contact]})"
-        )
+        raise ParameterError(f"contact={contact!r} needs {' and '.join(missing)} ({what})")
     if contact == "elastic-foundation":
         return ContactLaw(foundation_stiffness(ball, plate, given["layer_depth"]), 2.0)
     if contact == "power-law":
@@ -297,13 +299,6 @@ def contact_parameters(
         0.0 if mu is None else checks.positive("dissipation", mu, "s/m"),
         0.0 if A is None else checks.positive("viscous_time", A, "s"),
     )  # fmt: skip
-
-
-_NEEDS = {
-    "hunt-crossley": "mu, s/m, > 0",
-    "viscoelastic": "A, s, > 0",
-    "power-law": "n and K_n, N/m^n",
-}
 
 
 def _shell_parameters(ball, contact, surface, given: dict) -> ContactLaw:

@@ -41,17 +41,11 @@ def corner_impedance(plate: Plate) -> float:
 
 
 def critical_distance(plate: Plate, contact_time: float) -> float:
-    """Distance (m) within which an edge is felt, ``c_g tau / 2`` at ``omega = pi / tau`` (s)."""
-    tau = (
-        contact_time
-        if type(contact_time) is float and 0.0 < contact_time < math.inf
-        else checks.positive("contact_time", contact_time, "s")
-    )
-    return _critical_distance(plate, tau)
-
-
-def _critical_distance(plate: Plate, tau: float) -> float:
-    """``sqrt(pi tau) (D / rho h)^(1/4)`` (m) for a checked ``tau`` (s)."""
+    """Distance (m) within which an edge is felt, ``c_g tau / 2`` at ``omega = pi / tau`` (s):
+    ``sqrt(pi tau) (D / rho h)^(1/4)``."""
+    tau = contact_time
+    if not (type(tau) is float and 0.0 < tau < math.inf):
+        tau = checks.positive("contact_time", contact_time, "s")
     return math.sqrt(math.pi * tau) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
@@ -84,7 +78,7 @@ def admittance_at(
     tau, beta_inf = contact_time, infinite_admittance
     if plate.boundary != "free":
         return beta_inf
-    dc = _critical_distance(plate, tau)
+    dc = critical_distance(plate, tau)
     sx = _taper(min(x, plate.length - x), dc)
     sy = _taper(min(y, plate.width - y), dc)
     if sx == 0.0 and sy == 0.0:

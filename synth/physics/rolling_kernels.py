@@ -86,7 +86,8 @@ def rates(z, vy, s, env, dx, v, c):  # pragma: no cover - compiled
     delta = e - z
     w = ep * v - vy
     K, beta = c.K, c.beta
-    f, a = force(delta, w, beta * K, c.n, c.mu, c.b, None, 0.0)  # no yield (equations.force)
+    # no yield: an infinite yield penetration, as the impacts' kernels take it (one compile)
+    f, a = force(delta, w, beta * K, c.n, c.mu, c.b, math.inf, 0.0)
     F = K * f
     drive = F * ep * v
     return (

@@ -13,55 +13,9 @@ from collections import namedtuple
 import numpy as np
 
 from synth.compilation import announce, compiled
-from synth.physics.contact_kernels.dense import (
-    DOP853_STEPS,
-    END_OF_CONTACT,
-    FORCE_END,
-    H_COLS,
-    H_H,
-    H_T0,
-    H_W0,
-    H_X0,
-    H_XM,
-    PEAK_PENETRATION,
-    RADAU_STEPS,
-    SETTLING,
-    Dense,
-    dense_state,
-    event_root,
-    find_step,
-    golden_max,
-    sample_pulse,
-)
+from synth.physics.contact_kernels import dense as _d
+from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels.dop853 import integrate_dop853
-from synth.physics.contact_kernels.equations import (
-    MAX_STEPS,
-    SEPARATED,
-    SETTLED,
-    Law,
-    elastic_terms,
-    jacobian,
-    law_force,
-    penetration_rate,
-    potential,
-    yield_value,
-)
-from synth.physics.contact_kernels.outcome import (
-    N_RESULT,
-    R_B,
-    R_C,
-    R_CONTACT_TIME,
-    R_ENERGY_RESIDUAL,
-    R_REBOUND_SPEED,
-    R_RESTITUTION,
-    R_SEPARATION_TIME,
-    R_STATUS,
-    R_STIFF,
-    R_XY,
-    End,
-    Scales,
-    impact_row,
-)
 from synth.physics.contact_kernels.radau import integrate_radau
 from synth.physics.contact_kernels.series import new_series, series_coefficients, series_start
 
@@ -77,8 +31,8 @@ EXPLICIT_STEP_LIMIT = 20_000
 IMPLICIT_STEP_LIMIT = 200_000
 
 #: Columns past the result array: an impact's start (s) and speed (m/s).
-R_T1 = N_RESULT
-R_V1 = N_RESULT + 1
+R_T1 = _eq.N_RESULT
+R_V1 = _eq.N_RESULT + 1
 
 # Integrator choice of ``impact``.
 AUTO = 0
@@ -88,8 +42,8 @@ RADAU = 2
 
 #: Lumped parameters of an impact: mass ``m`` (kg), stiffness ``K`` (N/m^n), exponent ``n``,
 #: admittance ``beta`` (m/(N s)), ``g`` (m/s^2), Hunt-Crossley ``mu`` (s/m), viscous time
-#: ``A`` (s), yield penetration ``delta_y`` (m; None: compiled without yield), surface
-#: velocity ``v_free`` (m/s, upward).
+#: ``A`` (s), yield penetration ``delta_y`` (m; inf: none), surface velocity ``v_free`` (m/s,
+#: upward).
 Lumped = namedtuple("Lumped", ("m", "K", "n", "beta", "g", "mu", "A", "delta_y", "v_free"))
 #: Bounce rules: lowest kinetic energy relative to the first's, end ``t_max`` (s), most impacts;
 #: hand-over at a contact time ``tau_edge`` (s) or an energy residual above ``residual_limit``.
@@ -102,38 +56,41 @@ def solve(P, rtol, atol, max_steps, integrate, radau):
     only the one it is passed), started from the series; its :func:`finish`."""
     S = new_series(P.b)
     # the series ends before the yield penetration xy (x <= (1 + G) s)
-    s_max = yield_value(P.xy) / (1.0 + P.G)
+    s_max = P.xy / (1.0 + P.G)
     s1, x1, w1, i2, loss = series_start(P, rtol, S, s_max)
     # zeros, not empty: unused columns would otherwise differ between processes
-    hist = np.zeros((32, H_COLS))
-    hist[0, H_H] = s1
-    hist[0, H_W0] = 1.0
+    hist = np.zeros((32, _d.H_COLS))
+    hist[0, _d.H_H] = s1
+    hist[0, _d.H_W0] = 1.0
     out = integrate(P, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1)
-    return finish(out, Dense(out[8], S, radau, P))
+    return finish(out, _d.Dense(out.hist, S, radau, P))
 
 
 @compiled(inline="always")
 def finish(out, D):
-    """End of contact, peak penetration and force of the integrated contact ``out`` with
-    dense output ``D``; ``s_force`` is the force pulse's end (:func:`force_end`)."""
-    status, s_end, x_end, w_end, i2, loss, nh, _, hist = out
+    """End of contact, peak penetration and force of the integration ``out`` (its
+    :data:`~.equations.Integration`) with dense output ``D``; ``s_force`` is the force
+    pulse's end (:func:`force_end`)."""
+    status, s_end, x_end, w_end, nh = out.status, out.s, out.x, out.w, out.nh
     P = D.P
     s_contact = s_end
-    if status == SEPARATED:
+    if status == _eq.SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
-        s_end = event_root(D, nh - 1, END_OF_CONTACT, 0.0)
-        w_end = dense_state(D, nh - 1, s_end)[1]
+        s_end = _d.event_root(D, nh - 1, _d.END_OF_CONTACT, 0.0)
+        w_end = _d.dense_state(D, nh - 1, s_end)[1]
         x_end = 0.0
         s_contact = s_end
-    elif status == SETTLED:
-        s_contact = event_root(D, nh - 1, SETTLING, 0.5 * (P.lam * P.G) ** 2)
+    elif status == _eq.SETTLED:
+        s_contact = _d.event_root(D, nh - 1, _d.SETTLING, 0.5 * (P.lam * P.G) ** 2)
     s_force = s_contact
-    if status == SEPARATED and (P.c != 0.0 or P.b != 0.0 or yield_value(P.xy) != math.inf):
+    if status == _eq.SEPARATED and (P.c != 0.0 or P.b != 0.0 or P.xy != math.inf):
         s_force = min(force_end(D, nh), s_contact)
     x_max = peak_penetration(D, nh)
     f_max = peak_force(D, nh, x_max, s_contact)
-    end = End(status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1)
-    return end, hist[:nh]
+    end = _eq.End(
+        status, s_contact, s_force, s_end, w_end, x_end, out.i2, out.loss, x_max, f_max, nh - 1
+    )
+    return end, out.hist[:nh]
 
 
 @compiled()
@@ -142,15 +99,15 @@ def peak_penetration(D, nh):
     hist = D.hist
     ibest = 0
     for k in range(nh):
-        if hist[k, H_X0] > hist[ibest, H_X0]:
+        if hist[k, _d.H_X0] > hist[ibest, _d.H_X0]:
             ibest = k
-    x_max = hist[ibest, H_X0]
+    x_max = hist[ibest, _d.H_X0]
     for k in range(max(ibest - 1, 0), ibest + 1):
-        xm = hist[k, H_XM]
-        xe, we = dense_state(D, k, hist[k, H_T0] + hist[k, H_H])
-        rising = penetration_rate(D.P, hist[k, H_X0], hist[k, H_W0], xm) > 0.0
-        if rising and penetration_rate(D.P, xe, we, xm) <= 0.0:
-            xr, _ = dense_state(D, k, event_root(D, k, PEAK_PENETRATION, 0.0))
+        xm = hist[k, _d.H_XM]
+        xe, we = _d.dense_state(D, k, hist[k, _d.H_T0] + hist[k, _d.H_H])
+        rising = _eq.penetration_rate(D.P, hist[k, _d.H_X0], hist[k, _d.H_W0], xm) > 0.0
+        if rising and _eq.penetration_rate(D.P, xe, we, xm) <= 0.0:
+            xr, _ = _d.dense_state(D, k, _d.event_root(D, k, _d.PEAK_PENETRATION, 0.0))
             x_max = max(x_max, xr)
     return x_max
 
@@ -160,19 +117,19 @@ def peak_force(D, nh, x_max, s_contact):
     """Largest force of ``D``: elastic at ``x_max`` without a loss, else golden-section search."""
     P = D.P
     if P.c == 0.0 and P.b == 0.0:
-        return elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
+        return _eq.elastic_terms(x_max, P.n, 0.0, P.xy, 0.0)[0] if x_max > 0.0 else 0.0
     hist = D.hist
     ibest = 0
     vbest = -1.0
     for k in range(nh):
-        fk, _ = law_force(P, hist[k, H_X0], hist[k, H_W0], hist[k, H_XM])
+        fk, _ = _eq.law_force(P, hist[k, _d.H_X0], hist[k, _d.H_W0], hist[k, _d.H_XM])
         if fk > vbest:
             vbest = fk
             ibest = k
-    lo = hist[max(ibest - 1, 0), H_T0]
+    lo = hist[max(ibest - 1, 0), _d.H_T0]
     j = min(ibest + 1, nh - 1)
-    hi = min(hist[j, H_T0] + hist[j, H_H], s_contact)
-    return max(golden_max(D, nh, lo, hi, 1), vbest)
+    hi = min(hist[j, _d.H_T0] + hist[j, _d.H_H], s_contact)
+    return max(_d.golden_max(D, nh, lo, hi, 1), vbest)
 
 
 @compiled()
@@ -182,32 +139,24 @@ def force_end(D, nh):
     hist = D.hist
     k = nh - 1
     while k > 0:
-        if law_force(D.P, hist[k, H_X0], hist[k, H_W0], hist[k, H_XM])[0] > 0.0:
+        if _eq.law_force(D.P, hist[k, _d.H_X0], hist[k, _d.H_W0], hist[k, _d.H_XM])[0] > 0.0:
             break
         k -= 1
-    return event_root(D, k, FORCE_END, 0.0)
+    return _d.event_root(D, k, _d.FORCE_END, 0.0)
 
 
 #: How a bounce series ends (:data:`synth.physics.bounces.STOP_REASONS`), plus
 #: ``"handed-over"``: stopped before an impact the caller solves (Radau IIA, or an edge).
 BOUNCE_ENDS = (
-    "settled",
-    "flight-shorter-than-contact",
-    "floor",
-    "max-duration",
-    "max-impacts",
-    "solver-failure",
-    "handed-over",
-)
-#: :func:`bounce_end`'s code while the series goes on.
+    "settled", "flight-shorter-than-contact", "floor", "max-duration", "max-impacts",
+    "solver-failure", "handed-over",
+)  # fmt: skip
+#: :func:`bounce_end`'s code while the series goes on; the index of each end.
 NO_END = -1
-END_SETTLED = 0
-END_FLIGHT = 1
-END_FLOOR = 2
-END_MAX_DURATION = 3
-END_MAX_IMPACTS = 4
-END_SOLVER_FAILURE = 5
-END_HANDED_OVER = 6
+(
+    END_SETTLED, END_FLIGHT, END_FLOOR, END_MAX_DURATION, END_MAX_IMPACTS, END_SOLVER_FAILURE,
+    END_HANDED_OVER,
+) = range(len(BOUNCE_ENDS))  # fmt: skip
 
 
 @compiled()
@@ -261,7 +210,7 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
     capacity = min(max_impacts, 64)
     results = np.empty((capacity, R_V1 + 1))
     rows = np.zeros(capacity + 1, dtype=np.int64)
-    hists = np.empty((64, H_COLS))
+    hists = np.empty((64, _d.H_COLS))
     count = 0
     end = END_MAX_IMPACTS
     t = t1
@@ -272,15 +221,15 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
             end = END_HANDED_OVER
             break
         e, hist = solve(
-            P, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT, integrate_dop853, DOP853_STEPS
+            P, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT, integrate_dop853, _d.DOP853_STEPS
         )
-        if auto and e.status == MAX_STEPS:
+        if auto and e.status == _eq.MAX_STEPS:
             end = END_HANDED_OVER
             break
-        r = result(e, P, sc, DOP853_STEPS)
-        status = r[R_STATUS]
-        success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= rules.residual_limit
-        if success and r[R_CONTACT_TIME] >= rules.tau_edge:
+        r = result(e, P, sc, _d.DOP853_STEPS)
+        status = r[_eq.R_STATUS]
+        success = status >= 0.0 and r[_eq.R_ENERGY_RESIDUAL] <= rules.residual_limit
+        if success and r[_eq.R_CONTACT_TIME] >= rules.tau_edge:
             end = END_HANDED_OVER
             break
         if count == results.shape[0]:
@@ -290,20 +239,20 @@ def impacts_explicit(L, rtol, auto, v1, t1, rules):
         first = rows[count]
         top = first + hist.shape[0]
         if top > hists.shape[0]:
-            grown = np.empty((2 * top, H_COLS))
+            grown = np.empty((2 * top, _d.H_COLS))
             _copy_rows(hists, 0, first, grown, 0)
             hists = grown
         _copy_rows(hist, 0, hist.shape[0], hists, first)
         rows[count + 1] = top
-        for j in range(N_RESULT):
+        for j in range(_eq.N_RESULT):
             results[count, j] = r[j]
         results[count, R_T1] = t
         results[count, R_V1] = v
         count += 1
-        v_out = r[R_REBOUND_SPEED]
+        v_out = r[_eq.R_REBOUND_SPEED]
         code, t = bounce_end(
-            t, v1, L.g, success, success and status == SETTLED, r[R_RESTITUTION], v_out,
-            r[R_SEPARATION_TIME], rules.energy_floor, rules.t_max,
+            t, v1, L.g, success, success and status == _eq.SETTLED, r[_eq.R_RESTITUTION], v_out,
+            r[_eq.R_SEPARATION_TIME], rules.energy_floor, rules.t_max,
         )  # fmt: skip
         if code != NO_END:
             end = code
@@ -327,7 +276,7 @@ def impact(L, v_in, rtol, method):
             L, rtol, method == AUTO, v_in, 0.0, ONE_IMPACT
         )
         if count:
-            return results[0, :N_RESULT], hists
+            return results[0, : _eq.N_RESULT], hists
     announce("stiff-contact")
     return impact_implicit(L, v_in, rtol)
 
@@ -340,16 +289,15 @@ def scales(L, v_in):
     lam = L.beta * L.m / theta
     G = L.g * theta / v0
     xy = scaled_yield(L.delta_y, L, v0, theta)
-    P = Law(lam, G, L.n, L.mu * v0, 1.5 * L.A / theta, xy)
-    return P, Scales(L.m, v_in, v0, theta, lam, G, L.m * v0 / theta)
+    P = _eq.Law(lam, G, L.n, L.mu * v0, 1.5 * L.A / theta, xy)
+    return P, _eq.Scales(L.m, v_in, v0, theta, lam, G, L.m * v0 / theta)
 
 
 @compiled()
 def scaled_yield(delta_y, L, v0, theta):
-    """Yield penetration over ``theta v0``: None without yield, inf where out of reach."""
-    if delta_y is None:
-        return None
-    if not yield_reachable(delta_y, L.K, L.m, L.g, L.beta, v0):
+    """Yield penetration over ``theta v0``, inf without a yield or where it is out of reach:
+    a float either way, so that the kernels compile once (the yield's tests cost little)."""
+    if delta_y == math.inf or not yield_reachable(delta_y, L.K, L.m, L.g, L.beta, v0):
         return math.inf
     return delta_y / (theta * v0)
 
@@ -370,39 +318,26 @@ def impact_implicit(L, v_in, rtol):
     """``impact`` by Radau IIA."""
     P, sc = scales(L, v_in)
     atol = rtol * ABSOLUTE_FACTOR
-    e, hist = solve(P, rtol, atol, IMPLICIT_STEP_LIMIT, integrate_radau, RADAU_STEPS)
-    return result(e, P, sc, RADAU_STEPS), hist
+    e, hist = solve(P, rtol, atol, IMPLICIT_STEP_LIMIT, integrate_radau, _d.RADAU_STEPS)
+    return result(e, P, sc, _d.RADAU_STEPS), hist
 
 
 @compiled(inline="always")
 def result(e, P, sc, stiff):
     """The result array of ``impact`` from :func:`finish`'s end ``e`` (yield: unloading energy)."""
-    xy = yield_value(P.xy)
-    r = impact_row(e, potential(e.x_end, P.n, P.xy, e.x_max if e.x_max > xy else 0.0), sc)
-    r[R_STIFF] = 1.0 if stiff else 0.0
-    r[R_C] = P.c
-    r[R_B] = P.b
-    r[R_XY] = xy
+    xy = P.xy
+    r = _eq.impact_row(e, _eq.potential(e.x_end, P.n, xy, e.x_max if e.x_max > xy else 0.0), sc)
+    r[_eq.R_STIFF] = 1.0 if stiff else 0.0
+    r[_eq.R_C] = P.c
+    r[_eq.R_B] = P.b
+    r[_eq.R_XY] = xy
     return r
-
-
-@compiled()
-def pulse(d, separated, times, forces):
-    """The pulse of dense output ``d`` at uniform times (s) into ``times``, ``forces`` (N)."""
-    S = new_series(d.law.b)
-    series_coefficients(d.law, S)
-    sample_pulse(Dense(d.hist, S, d.radau, d.law), d.s_contact, times, forces)
-    times *= d.theta
-    forces *= d.f_scale
-    if separated:
-        forces[0] = 0.0
-        forces[-1] = 0.0
 
 
 @compiled()
 def pulse_force_slope(d, step, points, offset, period, samples, out):
     """Force (N) and rate (N/s) into ``out`` at times ``j step`` (s, ``j < points``), then
-    ``offset + m period`` (s, ``m < samples``), without temporaries."""
+    ``offset + m period`` (s, ``m < samples``), in one call (a pulse per impact)."""
     total = points + samples
     s = np.empty(total)
     for j in range(points):
@@ -420,26 +355,26 @@ def pulse_force_slope(d, step, points, offset, period, samples, out):
 
 @compiled()
 def force_slope_at(d, s, out, slope):
-    """Dimensionless force at times ``s`` from dense output ``d``, 0 outside ``[0,
+    """Dimensionless force at times ``s`` from dense output ``d``, 0 outside ``(0,
     s_contact]``, into ``out``; its rate ``f_x x' + f_w w'`` into ``slope``."""
     P = d.law
     S = new_series(P.b)
     series_coefficients(P, S)
-    D = Dense(d.hist, S, d.radau, P)
+    D = _d.Dense(d.hist, S, d.radau, P)
     nh = d.hist.shape[0]
     for i in range(s.shape[0]):
         si = s[i]
-        if si <= 0.0 or si >= d.s_contact:
+        if si <= 0.0 or si > d.s_contact:
             out[i] = 0.0
             slope[i] = 0.0
             continue
-        k = find_step(d.hist, nh, si)
-        x, w = dense_state(D, k, si)
-        xm = d.hist[k, H_XM]
-        f = law_force(P, x, w, xm)[0]
+        k = _d.find_step(d.hist, nh, si)
+        x, w = _d.dense_state(D, k, si)
+        xm = d.hist[k, _d.H_XM]
+        f = _eq.law_force(P, x, w, xm)[0]
         out[i] = f
         if x <= 0.0 or f <= 0.0:
             slope[i] = 0.0
             continue
-        _, _, fx, fw = jacobian(P, x, w, xm)  # -f_x, -f_w
+        _, _, fx, fw = _eq.jacobian(P, x, w, xm)  # -f_x, -f_w
         slope[i] = -(fx * (w - P.lam * f) + fw * (P.G - f))

@@ -11,14 +11,7 @@ from collections import namedtuple
 import numpy as np
 
 from synth.compilation import compiled
-from synth.physics.contact_kernels.equations import (
-    law_force,
-    penetration_rate,
-    power,
-    settling_energy,
-    unloading_branch,
-    yield_law,
-)
+from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels.series import series_eval
 
 # Columns of the dense-output history, one row per accepted step (row 0: the series).
@@ -96,9 +89,7 @@ def hermite_root(x0, x1, d0, d1):
 @compiled()
 def yield_fraction(x0, x1, d0, d1, xy, xm, xp):
     """Fraction of a step at which the yielded law changes: the peak of x past ``xy`` while
-    loading, the residual penetration ``xp`` while unloading; 1 if neither (or ``xy`` None)."""
-    if xy is None:
-        return 1.0
+    loading, the residual penetration ``xp`` while unloading; 1 if neither."""
     if xm == 0.0:
         if not (d0 > 0.0 and d1 < 0.0):
             return 1.0
@@ -176,7 +167,7 @@ def penetration_and_force(D, nst, s):
     """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
     k = find_step(D.hist, nst, s)
     x, w = dense_state(D, k, s)
-    return x, law_force(D.P, x, w, D.hist[k, H_XM])[0]
+    return x, _eq.law_force(D.P, x, w, D.hist[k, H_XM])[0]
 
 
 @compiled()
@@ -227,10 +218,10 @@ def event(which, x, w, P, thr, xm):
     if which == 0:
         return x
     if which == 1:
-        return penetration_rate(P, x, w, xm)
+        return _eq.penetration_rate(P, x, w, xm)
     if which == 3:
         return force_numerator(x, w, P.n, P.c, P.b, P.xy, xm)
-    return settling_energy(P, x, w, xm) - thr
+    return _eq.settling_energy(P, x, w, xm) - thr
 
 
 @compiled()
@@ -239,13 +230,12 @@ def force_numerator(x, w, n, c, b, xy, xm):
     ``x <= 0``; with a yield, ``yield_law``'s, or ``x - xp`` below ``xp``."""
     if x <= 0.0:
         return x
-    if xy is not None:
-        if xy != math.inf:
-            a, r, _, _ = yield_law(x, xy, xm)
-            if r == 0.0:
-                return x - unloading_branch(xy, xm)[0]
-            return a * (1.0 + c * w) + b * r * w
-    return power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
+    if xy != math.inf:
+        a, r, _, _ = _eq.yield_law(x, xy, xm)
+        if r == 0.0:
+            return x - _eq.unloading_branch(xy, xm)[0]
+        return a * (1.0 + c * w) + b * r * w
+    return _eq.power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
 
 
 @compiled()
@@ -284,19 +274,3 @@ def event_root(D, k, which, thr):
         if tb - ta <= (1e-10 * hist[k, H_H] if which == 1 else 4e-16 * tb):
             break
     return tb if -fb < fa else ta
-
-
-@compiled()
-def sample_pulse(D, s_contact, times, forces):
-    """Pulse f at ``len(times)`` uniform times over [0, s_contact] into ``times``, ``forces``."""
-    hist = D.hist
-    nh = hist.shape[0]
-    n_points = times.shape[0]
-    ds = s_contact / (n_points - 1)
-    k = 0
-    for i in range(n_points):
-        times[i] = i * ds
-        while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
-            k += 1
-        x, w = dense_state(D, k, times[i])
-        forces[i], _ = law_force(D.P, x, w, hist[k, H_XM])

@@ -11,29 +11,8 @@ import numpy as np
 
 from synth.compilation import compiled
 from synth.physics import dop853_tableau as _dop
-from synth.physics.contact_kernels.dense import (
-    H_COEF,
-    H_H,
-    H_T0,
-    H_W0,
-    H_X0,
-    H_XM,
-    grow_history,
-    hermite_dips,
-    hermite_root,
-    yield_fraction,
-)
-from synth.physics.contact_kernels.equations import (
-    MAX_STEPS,
-    SEPARATED,
-    SETTLED,
-    STEP_TOO_SMALL,
-    power,
-    rhs,
-    rise_ended,
-    settling_energy,
-    yielded_peak,
-)
+from synth.physics.contact_kernels import dense as _d
+from synth.physics.contact_kernels import equations as _eq
 
 # DOP853 tableau (Hairer's dop853.f)
 _NS = _dop.N_STAGES  # 12
@@ -72,12 +51,12 @@ def _time_to_end(x, w, dx, P):
     if u <= 0.0:
         return np.inf, 0.0
     phi = end_force_factor(w, P.c, P.b)
-    un = phi * power(u, n)
+    un = phi * _eq.power(u, n)
     sig = x / -dx
     for _ in range(6):
-        sn = power(sig, n)
+        sn = _eq.power(sig, n)
         v = u - G * sig + un * sn * sig / (n + 1.0)
-        vn = phi * power(max(v, 0.0), n)
+        vn = phi * _eq.power(max(v, 0.0), n)
         g = u * sig - 0.5 * G * sig * sig + vn * sn * sig * (lam / (n + 1.0) + sig / (n + 2.0)) - x
         dg = u - G * sig + vn * sn * (lam + sig)
         if not dg > 0.0:
@@ -88,7 +67,7 @@ def _time_to_end(x, w, dx, P):
             return x / -dx, u
         if abs(step) <= 1e-12 * sig:
             break
-    return sig, u - G * sig + un * power(sig, n) * sig / (n + 1.0)
+    return sig, u - G * sig + un * _eq.power(sig, n) * sig / (n + 1.0)
 
 
 @compiled()
@@ -102,8 +81,8 @@ def _switch_fraction(x0, w0, x1, w1, dx0, dw0, dx1, dw1, h, c, b):
     dq0 = h * (dx0 * (1.0 + c * w0) + (x0 * c + b) * dw0)
     dq1 = h * (dx1 * (1.0 + c * w1) + (x1 * c + b) * dw1)
     if q0 > 0.0:
-        return hermite_root(q0, q1, dq0, dq1)
-    return hermite_root(-q0, -q1, -dq0, -dq1)
+        return _d.hermite_root(q0, q1, dq0, dq1)
+    return _d.hermite_root(-q0, -q1, -dq0, -dq1)
 
 
 @compiled()
@@ -113,7 +92,7 @@ def _landing_factor(n):
     e5 = 0.0
     e3 = 0.0
     for i in range(_NS + 1):
-        g = power(1.0 - _C[i], n) if i < _NS else 0.0
+        g = _eq.power(1.0 - _C[i], n) if i < _NS else 0.0
         e5 += _E5[i] * g
         e3 += _E3[i] * g
     if e5 == 0.0:
@@ -138,20 +117,19 @@ def _stage(A, row, K, i, x, w, h, P, xm):
     for j in range(i):
         a0 += A[row, j] * K[j, 0]
         a1 += A[row, j] * K[j, 1]
-    K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(P, x + h * a0, w + h * a1, xm)
+    K[i, 0], K[i, 1], K[i, 2], K[i, 3] = _eq.rhs(P, x + h * a0, w + h * a1, xm)
 
 
 @compiled()
 def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) of law ``P`` from time s, state (x, w, q2, q3), first step h,
-    history row 0 filled. Returns (status, s_end, x, w, I2, L, n_rows, n_rejected, hist)."""
+    history row 0 filled; its :data:`~.equations.Integration`."""
     lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
     xp = 0.0  # the residual penetration, where the unloading force ends
     K = np.empty((16, 4))
-    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(P, x, w, xm)
+    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = _eq.rhs(P, x, w, xm)
     nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
-    nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2
     # past the first peak or an overdamped creep's end: a settled pulse keeps its landing
@@ -168,16 +146,16 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     while True:
         if nst > max_steps or not math.isfinite(s + h):
             # an unbounded step (a state that no event ends) counts as the step limit
-            return MAX_STEPS, s, x, w, q2, q3, nst, nrej, hist
+            return _eq.Integration(_eq.MAX_STEPS, s, x, w, q2, q3, nst, hist)
         if not (h >= 1e-14 * s and h >= 1e-300):
-            return STEP_TOO_SMALL, s, x, w, q2, q3, nst, nrej, hist
+            return _eq.Integration(_eq.STEP_TOO_SMALL, s, x, w, q2, q3, nst, hist)
         for i in range(1, _NS):
             _stage(_A, i, K, i, x, w, h, P, xm)
         xn = x + h * _weighted(_B, K, _NS, 0)
         wn = w + h * _weighted(_B, K, _NS, 1)
         q2n = q2 + h * _weighted(_B, K, _NS, 2)
         q3n = q3 + h * _weighted(_B, K, _NS, 3)
-        K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = rhs(P, xn, wn, xm)
+        K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = _eq.rhs(P, xn, wn, xm)
         # scipy's norm on x, w, I2, and with the viscoelastic loss on L too: L' = -x^n x'
         # ends like (tau - s)^n, and the landing steps are sized for it
         components = 4.0 if b != 0.0 else 3.0
@@ -194,7 +172,6 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         else:
             err = h * e5 / math.sqrt((e5 + 0.01 * e3) * components)
         if err >= 1.0 or not math.isfinite(err):
-            nrej += 1
             if landing and math.isfinite(err):
                 # The landing failed (its error ~ h^(n+1)): step to where one should pass.
                 land_max = 0.9 * h * err ** (-1.0 / (n + 1.0))
@@ -214,10 +191,9 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             landing = False
             rejected = True
             continue
-        if xn > 0.0 and hermite_dips(x, xn, h * K[0, 0], h * K[_NS, 0]):
+        if xn > 0.0 and _d.hermite_dips(x, xn, h * K[0, 0], h * K[_NS, 0]):
             # separated and landed again inside the step: redo it shorter
             h *= 0.5
-            nrej += 1
             landing = False
             rejected = True
             continue
@@ -225,8 +201,8 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         if xn < 0.0:
             # the step crosses the end of contact, a kink its error estimate and dense output
             # do not trust: redo it to land just past the root (cubic Hermite estimate)
-            th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
-        th = min(th, yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], P.xy, xm, xp))
+            th = _d.hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
+        th = min(th, _d.yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], P.xy, xm, xp))
         if b != 0.0:
             # the viscoelastic force switches off (or on) inside the contact: a kink of the
             # same kind, landed on as well (the earlier of the two)
@@ -238,18 +214,17 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             )
         if th < 0.999:
             h *= th * 1.0001 + 1e-9
-            nrej += 1
             continue
-        hist = grow_history(hist, nst)
+        hist = _d.grow_history(hist, nst)
         for i in range(_NS + 1, 16):
             _stage(_A_EXTRA, i - _NS - 1, K, i, x, w, h, P, xm)
-        hist[nst, H_T0] = s
-        hist[nst, H_XM] = xm
-        hist[nst, H_H] = h
-        hist[nst, H_X0] = x
-        hist[nst, H_W0] = w
+        hist[nst, _d.H_T0] = s
+        hist[nst, _d.H_XM] = xm
+        hist[nst, _d.H_H] = h
+        hist[nst, _d.H_X0] = x
+        hist[nst, _d.H_W0] = w
         for q in range(2):
-            base = H_COEF + 7 * q
+            base = _d.H_COEF + 7 * q
             dy = xn - x if q == 0 else wn - w
             hist[nst, base] = dy
             hist[nst, base + 1] = h * K[0, q] - dy
@@ -269,13 +244,13 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         for q in range(4):
             K[0, q] = K[_NS, q]
         # on a yielded peak the first stage stands: force and contact radius are continuous
-        xm, xp, q3 = yielded_peak(P.xy, x, K[0, 0], xm, xp, q3)
+        xm, xp, q3 = _eq.yielded_peak(P.xy, x, K[0, 0], xm, xp, q3)
         if x <= 0.0:
-            return SEPARATED, s, x, w, q2, q3, nst, nrej, hist
-        if rise_ended(K[0, 0], w, atol):
+            return _eq.Integration(_eq.SEPARATED, s, x, w, q2, q3, nst, hist)
+        if _eq.rise_ended(K[0, 0], w, atol):
             peaked = True
-        if settle and peaked and settling_energy(P, x, w, xm) < wthr:
-            return SETTLED, s, x, w, q2, q3, nst, nrej, hist
+        if settle and peaked and _eq.settling_energy(P, x, w, xm) < wthr:
+            return _eq.Integration(_eq.SETTLED, s, x, w, q2, q3, nst, hist)
         fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
         if rejected:
             fac = min(1.0, fac)
@@ -292,9 +267,8 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                 sig, v = _time_to_end(x, w, K[0, 0], P)
                 if kappa < 0.0:
                     kappa = _landing_factor(n)
-                size = (
-                    kappa * end_force_factor(-v, c, b) * power(v, n - 1.0) * (1.0 + lam * v / x_top)
-                )
+                size = kappa * end_force_factor(-v, c, b) * _eq.power(v, n - 1.0)
+                size *= 1.0 + lam * v / x_top
                 if size > 0.0:
                     reach = min(reach, (0.8 * rtol / size) ** (1.0 / (n + 1.0)))
                 if sig <= min(h, reach):

@@ -15,7 +15,8 @@ Settling is exact: ``W = u^2 / 2 + x^(n+1) / (n+1) - G x`` (``u = lam G - w``) n
 increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. With a yield (Thornton's
 elastic-perfectly plastic Hertz contact, :func:`yield_law`) ``x^n`` and ``x^(1/2)`` are the
 law's force and contact radius on the branch that the largest penetration so far selects
-(docs/physics.md, "Yield of the contact"). Also the status codes.
+(docs/physics.md, "Yield of the contact"). Also the status codes and the result array of one
+impact (:func:`impact_row`, with its energy balance).
 """
 
 from __future__ import annotations
@@ -23,11 +24,17 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
+import numpy as np
+
 from synth.compilation import compiled
 
 #: Dimensionless law of one contact: ``lam``, ``G``, ``n``, losses ``c``, ``b``, yield
-#: penetration ``xy`` (None: compiled without yield; inf: not reached).
+#: penetration ``xy`` (inf: none, or not reached).
 Law = namedtuple("Law", ("lam", "G", "n", "c", "b", "xy"))
+
+#: How an integration ended (dimensionless): ``status``, at time ``s`` in state ``x``, ``w`` with
+#: the quadratures ``i2`` and ``loss``; its dense output is the first ``nh`` rows of ``hist``.
+Integration = namedtuple("Integration", ("status", "s", "x", "w", "i2", "loss", "nh", "hist"))
 
 # Status codes shared with synth.physics.contact.
 SEPARATED = 0
@@ -115,11 +122,9 @@ def yield_law_arrays(x, xy, xm, a, r, da, dr):
 
 @compiled()
 def elastic_terms(x, n, b, xy, xm):
-    """``(a, r, da, dr)`` at ``x > 0`` (:func:`yield_law`'s with a finite ``xy``). ``xy`` None
-    prunes the yield code at compile time: numba prunes on an argument's type."""
-    if xy is not None:
-        if xy != math.inf:
-            return yield_law(x, xy, xm)
+    """``(a, r, da, dr)`` at ``x > 0`` (:func:`yield_law`'s with a finite ``xy``)."""
+    if xy != math.inf:
+        return yield_law(x, xy, xm)
     a = power(x, n)
     if b == 0.0:
         return a, 0.0, n * a / x, 0.0
@@ -128,7 +133,7 @@ def elastic_terms(x, n, b, xy, xm):
 
 
 @compiled()
-def force(x, w, lam, n, c, b, xy=None, xm=0.0):
+def force(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
     """Dimensionless contact force f and its elastic part a (0 out of contact)."""
     if x <= 0.0:
         return 0.0, 0.0
@@ -189,18 +194,16 @@ def jacobian(P, x, w, xm):
 @compiled()
 def potential(x, n, xy, xm):
     """Elastic energy (dimensionless) stored at ``x`` on the branch of ``xm``."""
-    if xy is not None:
-        if xy != math.inf:
-            return yield_potential(x, xy, xm)
+    if xy != math.inf:
+        return yield_potential(x, xy, xm)
     return x * power(x, n) / (n + 1.0) if x > 0.0 else 0.0
 
 
 @compiled()
 def residual_penetration(xy, xm):
     """Where the unloading force from ``xm`` ends (:func:`unloading_branch`), 0 unyielded."""
-    if xy is not None:
-        if xm > xy:
-            return unloading_branch(xy, xm)[0]
+    if xm > xy:
+        return unloading_branch(xy, xm)[0]
     return 0.0
 
 
@@ -214,19 +217,10 @@ def settling_energy(P, x, w, xm):
 
 
 @compiled()
-def yield_value(xy):
-    """The yield penetration ``xy`` as a float: inf for None (no yield)."""
-    if xy is None:
-        return math.inf
-    return xy
-
-
-@compiled()
 def yielded_peak(xy, x, dx, xm, xp, loss):
     """``(xm, xp, loss)`` after a step to ``x`` at rate ``dx``: a peak past ``xy`` unloads."""
-    if xy is not None:
-        if xm == 0.0 and x > xy and dx <= 0.0:
-            return x, unloading_branch(xy, x)[0], loss + plastic_work(xy, x)
+    if xm == 0.0 and x > xy and dx <= 0.0:
+        return x, unloading_branch(xy, x)[0], loss + plastic_work(xy, x)
     return xm, xp, loss
 
 
@@ -245,3 +239,76 @@ def rise_ended(dx, w, atol):
 def penetration_rate(P, x, w, xm):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
     return w - P.lam * law_force(P, x, w, xm)[0]
+
+
+# Fields of the result array: the one place that names their order.
+R_STATUS = 0  # SEPARATED, SETTLED or a failure code
+R_TINY_REBOUND = 1  # 1: separated with a rebound below the solver's resolution
+R_STIFF = 2  # 1: integrated by Radau IIA, 0: by DOP853 (power laws)
+R_RESTITUTION = 3  # v_out / v_in
+R_CONTACT_TIME = 4  # s, the force pulse's length (force > 0)
+R_MAX_PENETRATION = 5  # m
+R_PEAK_FORCE = 6  # N
+R_IMPULSE = 7  # N s
+R_INELASTICITY = 8  # Zener's lam = beta m / theta
+R_REBOUND_SPEED = 9  # m/s
+R_PLATE_ENERGY = 10  # J
+R_ENERGY_RESIDUAL = 11  # relative error of the energy balance
+R_N_STEPS = 12  # accepted steps
+R_G = 13  # dimensionless gravity g theta / v0 (dense output)
+R_C = 14  # dimensionless Hunt-Crossley loss mu v0 (dense output; power laws)
+R_S_CONTACT = 15  # dimensionless end of contact (dense output)
+R_THETA = 16  # the time scale, s
+R_F_SCALE = 17  # force scale m v0 / theta, N
+R_B = 18  # dimensionless viscoelastic loss (3/2) A / theta (dense output; power laws)
+R_SEPARATION_TIME = 19  # s, to the penetration's return to 0 (the dense output's end)
+R_XT = 20  # dimensionless transition deflection delta_t / (theta v0) (shell law)
+R_XY = 21  # dimensionless yield penetration delta_y / (theta v0) (power laws; inf: none)
+N_RESULT = 22
+
+
+#: How a contact ended (dimensionless): ``status``; ``s_contact`` (separation, or proof it
+#: cannot), ``s_force`` (force pulse's end); ``s_end, w_end, x_end``; ``i2 = Int f^2``,
+#: ``loss``; ``x_max``, ``f_max``; ``n_steps``.
+End = namedtuple("End", "status s_contact s_force s_end w_end x_end i2 loss x_max f_max n_steps")
+#: Scales of one impact: ``m`` (kg), ``v_in``, ``v0`` (m/s), ``theta`` (s), ``f_scale`` (N),
+#: Zener's ``lam``, dimensionless gravity ``G``.
+Scales = namedtuple("Scales", "m v_in v0 theta lam G f_scale")
+
+
+@compiled(inline="always")
+def impact_row(e, elastic_end, sc):
+    """The result array of the contact that ended as ``e`` at the scales ``sc``."""
+    w_end, x_end, G, lam, v0, theta = e.w_end, e.x_end, sc.G, sc.lam, sc.v0, sc.theta
+    separated = e.status == SEPARATED
+    tiny_rebound = separated and w_end > 0.0
+    if tiny_rebound:
+        # still (barely) approaching: the rebound is below the absolute resolution
+        w_end = 0.0
+    i1 = 1.0 - w_end + G * e.s_end  # from w' = G - f
+    # energy balance, dimensionless (docs/physics.md, "Hertz contact", in the plate's frame)
+    lhs = 0.5 * w_end * w_end + elastic_end - G * x_end - 0.5
+    rhs = G * lam * i1 - lam * e.i2 - e.loss
+    # relative to the energy exchanged: arrival energy, or gravity's work and the energy
+    # carried away when larger (a slow heavy ball sinking with the plate)
+    scale = max(0.5, abs(G * lam * i1), lam * e.i2, abs(e.loss), abs(G * x_end))
+    v_out = -w_end * v0 if separated else 0.0
+    r = np.zeros(N_RESULT)
+    r[R_STATUS] = e.status
+    r[R_TINY_REBOUND] = 1.0 if tiny_rebound else 0.0
+    r[R_RESTITUTION] = v_out / sc.v_in
+    r[R_CONTACT_TIME] = e.s_force * theta
+    r[R_SEPARATION_TIME] = e.s_contact * theta
+    r[R_MAX_PENETRATION] = e.x_max * theta * v0
+    r[R_PEAK_FORCE] = e.f_max * sc.f_scale
+    r[R_IMPULSE] = i1 * sc.m * v0
+    r[R_INELASTICITY] = lam
+    r[R_REBOUND_SPEED] = v_out
+    r[R_PLATE_ENERGY] = lam * e.i2 * sc.m * v0 * v0
+    r[R_ENERGY_RESIDUAL] = abs(lhs - rhs) / scale
+    r[R_N_STEPS] = e.n_steps
+    r[R_G] = G
+    r[R_S_CONTACT] = e.s_contact
+    r[R_THETA] = theta
+    r[R_F_SCALE] = sc.f_scale
+    return r

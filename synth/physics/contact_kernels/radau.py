@@ -10,30 +10,8 @@ import math
 import numpy as np
 
 from synth.compilation import compiled
-from synth.physics.contact_kernels.dense import (
-    H_COEF,
-    H_H,
-    H_T0,
-    H_W0,
-    H_X0,
-    H_XM,
-    grow_history,
-    hermite_dips,
-    radau_dense,
-    yield_fraction,
-)
-from synth.physics.contact_kernels.equations import (
-    MAX_STEPS,
-    SEPARATED,
-    SETTLED,
-    STEP_TOO_SMALL,
-    jacobian,
-    law_force,
-    rhs,
-    rise_ended,
-    settling_energy,
-    yielded_peak,
-)
+from synth.physics.contact_kernels import dense as _d
+from synth.physics.contact_kernels import equations as _eq
 
 # Radau IIA (order 5) constants, as scipy.integrate.Radau
 _S6 = 6.0**0.5
@@ -42,27 +20,21 @@ _RE = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0
 _MU_REAL = 3.0 + 3.0 ** (2.0 / 3.0) - 3.0 ** (1.0 / 3.0)
 _MU_C_RE = 3.0 + 0.5 * (3.0 ** (1.0 / 3.0) - 3.0 ** (2.0 / 3.0))
 _MU_C_IM = -0.5 * (3.0 ** (5.0 / 6.0) + 3.0 ** (7.0 / 6.0))
-_RT = np.array(
-    [
-        [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
-        [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
-        [1.0, 1.0, 0.0],
-    ]
-)
-_RTI = np.array(
-    [
-        [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
-        [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
-        [0.50287263494578682, -2.57192694985560522, 0.59603920482822492],
-    ]
-)
-_RP = np.array(
-    [
-        [13.0 / 3.0 + 7.0 * _S6 / 3.0, -23.0 / 3.0 - 22.0 * _S6 / 3.0, 10.0 / 3.0 + 5.0 * _S6],
-        [13.0 / 3.0 - 7.0 * _S6 / 3.0, -23.0 / 3.0 + 22.0 * _S6 / 3.0, 10.0 / 3.0 - 5.0 * _S6],
-        [1.0 / 3.0, -8.0 / 3.0, 10.0 / 3.0],
-    ]
-)
+_RT = np.array([
+    [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
+    [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
+    [1.0, 1.0, 0.0],
+])  # fmt: skip
+_RTI = np.array([
+    [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
+    [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
+    [0.50287263494578682, -2.57192694985560522, 0.59603920482822492],
+])  # fmt: skip
+_RP = np.array([
+    [13.0 / 3.0 + 7.0 * _S6 / 3.0, -23.0 / 3.0 - 22.0 * _S6 / 3.0, 10.0 / 3.0 + 5.0 * _S6],
+    [13.0 / 3.0 - 7.0 * _S6 / 3.0, -23.0 / 3.0 + 22.0 * _S6 / 3.0, 10.0 / 3.0 - 5.0 * _S6],
+    [1.0 / 3.0, -8.0 / 3.0, 10.0 / 3.0],
+])  # fmt: skip
 # Quadrature weights of the Radau IIA collocation (last row of its A matrix).
 _RB = np.array([(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0])
 _NEWTON_MAXITER = 6
@@ -99,30 +71,29 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     F = np.zeros((3, 2))
     fq = np.zeros((3, 2))  # f and (f - a) x' at the stages, for the quadratures
     f0 = np.empty(4)
-    f0[0], f0[1], f0[2], f0[3] = rhs(P, y[0], y[1], xm)
+    f0[0], f0[1], f0[2], f0[3] = _eq.rhs(P, y[0], y[1], xm)
     h_old = -1.0
     err_old = -1.0
     nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
-    nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2
     peaked = False
     have_dense = False
     newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol**0.5))
-    j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
+    j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
     rejected = False
     while True:
         if nst > max_steps or not math.isfinite(s + h):
             # an unbounded step (a state that no event ends) counts as the step limit
-            return MAX_STEPS, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+            return _eq.Integration(_eq.MAX_STEPS, s, y[0], y[1], y[2], y[3], nst, hist)
         if not (h >= 1e-14 * s and h >= 1e-300):
-            return STEP_TOO_SMALL, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+            return _eq.Integration(_eq.STEP_TOO_SMALL, s, y[0], y[1], y[2], y[3], nst, hist)
         sc0 = atol + rtol * abs(y[0])
         sc1 = atol + rtol * abs(y[1])
         # initial guess from the previous step's collocation polynomial
         for i in range(3):
             if have_dense:
-                xg, wg = radau_dense(hist, nst - 1, s + h * _RC[i])
+                xg, wg = _d.radau_dense(hist, nst - 1, s + h * _RC[i])
                 Z[i, 0] = xg - y[0]
                 Z[i, 1] = wg - y[1]
             else:
@@ -150,7 +121,7 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             n_iter = it + 1
             ok = True
             for i in range(3):
-                F[i, 0], F[i, 1], _, _ = rhs(P, y[0] + Z[i, 0], y[1] + Z[i, 1], xm)
+                F[i, 0], F[i, 1], _, _ = _eq.rhs(P, y[0] + Z[i, 0], y[1] + Z[i, 1], xm)
                 if not (math.isfinite(F[i, 0]) and math.isfinite(F[i, 1])):
                     ok = False
             if not ok:
@@ -190,9 +161,8 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             dw_old = dn
         if not converged:
             # refresh the Jacobian at the step start and halve the step
-            j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
+            j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
             h *= 0.5
-            nrej += 1
             rejected = True
             continue
         xn = y[0] + Z[2, 0]
@@ -204,7 +174,7 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         s1 = atol + rtol * max(abs(y[1]), abs(wn))
         err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         if rejected and err > 1.0:
-            r0, r1, _, _ = rhs(P, y[0] + e0, y[1] + e1, xm)
+            r0, r1, _, _ = _eq.rhs(P, y[0] + e0, y[1] + e1, xm)
             e0, e1 = _solve2(ra, rb, rc_, rd, rdet, r0 + ze0, r1 + ze1)
             err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         safety = 0.9 * (2 * _NEWTON_MAXITER + 1) / (2 * _NEWTON_MAXITER + n_iter)
@@ -215,39 +185,36 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                 mult = 1.0
             fac = mult * err**-0.25 if math.isfinite(err) and err > 0 else 0.2
             h *= max(0.2, safety * fac)
-            nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
+            j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
             continue
-        dxn = rhs(P, xn, wn, xm)[0]
-        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * dxn):
+        dxn = _eq.rhs(P, xn, wn, xm)[0]
+        if xn > 0.0 and _d.hermite_dips(y[0], xn, h * f0[0], h * dxn):
             # separated and landed again inside the step (see ``integrate_dop853``)
             h *= 0.5
-            nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
+            j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
             continue
         # land on the yielded peak or the end of the unloading force (``yield_fraction``)
-        th = yield_fraction(y[0], xn, h * f0[0], h * dxn, P.xy, xm, xp)
+        th = _d.yield_fraction(y[0], xn, h * f0[0], h * dxn, P.xy, xm, xp)
         if th < 0.999:
             h *= th * 1.0001 + 1e-9
-            nrej += 1
             rejected = True
             continue
-        hist = grow_history(hist, nst)
-        hist[nst, H_T0] = s
-        hist[nst, H_H] = h
-        hist[nst, H_X0] = y[0]
-        hist[nst, H_W0] = y[1]
-        hist[nst, H_XM] = xm
+        hist = _d.grow_history(hist, nst)
+        hist[nst, _d.H_T0] = s
+        hist[nst, _d.H_H] = h
+        hist[nst, _d.H_X0] = y[0]
+        hist[nst, _d.H_W0] = y[1]
+        hist[nst, _d.H_XM] = xm
         for q in range(2):
             for r in range(3):
-                hist[nst, H_COEF + 3 * q + r] = (
+                hist[nst, _d.H_COEF + 3 * q + r] = (
                     Z[0, q] * _RP[0, r] + Z[1, q] * _RP[1, r] + Z[2, q] * _RP[2, r]
                 )
         # quadratures by the collocation rule (exact for the collocation polynomial)
         for i in range(3):
-            fi, ai = law_force(P, y[0] + Z[i, 0], y[1] + Z[i, 1], xm)
+            fi, ai = _eq.law_force(P, y[0] + Z[i, 0], y[1] + Z[i, 1], xm)
             dxi = y[1] + Z[i, 1] - lam * fi
             fq[i, 0] = fi * fi
             fq[i, 1] = (fi - ai) * dxi
@@ -258,14 +225,14 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         nst += 1
         s += h
         have_dense = True
-        f0[0], f0[1], f0[2], f0[3] = rhs(P, y[0], y[1], xm)
-        xm, xp, y[3] = yielded_peak(P.xy, y[0], f0[0], xm, xp, y[3])
+        f0[0], f0[1], f0[2], f0[3] = _eq.rhs(P, y[0], y[1], xm)
+        xm, xp, y[3] = _eq.yielded_peak(P.xy, y[0], f0[0], xm, xp, y[3])
         if y[0] <= 0.0:
-            return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
-        if rise_ended(f0[0], y[1], atol):  # past the peak or the end of a creep
+            return _eq.Integration(_eq.SEPARATED, s, y[0], y[1], y[2], y[3], nst, hist)
+        if _eq.rise_ended(f0[0], y[1], atol):  # past the peak or the end of a creep
             peaked = True
-        if settle and peaked and settling_energy(P, y[0], y[1], xm) < wthr:
-            return SETTLED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+        if settle and peaked and _eq.settling_energy(P, y[0], y[1], xm) < wthr:
+            return _eq.Integration(_eq.SETTLED, s, y[0], y[1], y[2], y[3], nst, hist)
         if h_old > 0.0 and err_old > 0.0 and err > 0.0:
             mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
         else:
@@ -278,5 +245,5 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         h_old = h
         err_old = max(err, 1e-10)
         # the analytic 2x2 Jacobian is cheap: refresh it at every step
-        j11, j12, j21, j22 = jacobian(P, y[0], y[1], xm)
+        j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
         h *= fac

@@ -17,17 +17,15 @@ from collections import namedtuple
 import numpy as np
 
 from synth.compilation import compiled
+from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels.dense import find_step, grow_history
-from synth.physics.contact_kernels.equations import (
-    MAX_STEPS,
-    SEPARATED,
-    SETTLED,
-    STEP_TOO_SMALL,
-)
-from synth.physics.contact_kernels.outcome import R_XT, End, Scales, impact_row
 
 S_T0, S_H, S_X0, S_W0, S_DX0, S_DW0, S_X1, S_W1, S_DX1, S_DW1 = range(10)
 S_COLS = 10
+#: ``which`` of the root and peak searches: the deflection or the force. numpy integers: numba
+#: compiles a literal int once per value.
+_DEFLECTION = np.int64(0)
+_FORCE = np.int64(1)
 #: Steps before the integration reports failure.
 SHELL_STEP_LIMIT = 200_000
 #: Absolute tolerance relative to the local one (as the power laws' ``ABSOLUTE_FACTOR``).
@@ -212,7 +210,7 @@ def _kink_step(y, K, h, law, yn, err):
 
 @compiled()
 def integrate(law, rtol, atol):
-    """One contact from first touch: (status, s_end, x_end, w_end, I2, loss, n_steps, hist)."""
+    """One contact from first touch: its :data:`~.equations.Integration`."""
     hist = np.zeros((64, S_COLS))
     s = 0.0
     y = np.array([0.0, 1.0, 0.0, 0.0])
@@ -234,7 +232,7 @@ def integrate(law, rtol, atol):
         if not e <= 1.0:
             h *= max(0.2, 0.9 * e**-0.2)
             if h <= 1e-14 * max(1.0, s):
-                return STEP_TOO_SMALL, s, y[0], y[1], y[2], y[3], nh, hist[:nh]
+                return _eq.Integration(_eq.STEP_TOO_SMALL, s, y[0], y[1], y[2], y[3], nh, hist[:nh])
             continue
         x, xn = y[0], yn[0]
         if (x - xt) * (xn - xt) < 0.0 and abs(x - xt) > 1e-9 * xt:
@@ -262,13 +260,13 @@ def integrate(law, rtol, atol):
                     break
         if ends:
             # the root on the dense output (order 4), refined by Newton on integrator steps
-            s_end = _root_in_row(hist, nh - 1, law, 0)
+            s_end = _root_in_row(hist, nh - 1, law, _DEFLECTION)
             for _ in range(3):
                 dp5_step(y, K, s_end - s, law, yn, err)
                 if K[6, 0] >= 0.0:
                     break
                 s_end -= yn[0] / K[6, 0]
-            return SEPARATED, s_end, 0.0, yn[1], yn[2], yn[3], nh, hist[:nh]
+            return _eq.Integration(_eq.SEPARATED, s_end, 0.0, yn[1], yn[2], yn[3], nh, hist[:nh])
         s += h
         for q in range(4):
             y[q] = yn[q]
@@ -278,9 +276,9 @@ def integrate(law, rtol, atol):
             y[0] > 0.0
             and 0.5 * u * u + shell_potential(y[0], law.rR, xt, law.rg) - law.G * y[0] < settle
         ):
-            return SETTLED, s, y[0], y[1], y[2], y[3], nh, hist[:nh]
+            return _eq.Integration(_eq.SETTLED, s, y[0], y[1], y[2], y[3], nh, hist[:nh])
         h = h_next
-    return MAX_STEPS, s, y[0], y[1], y[2], y[3], nh, hist[:nh]
+    return _eq.Integration(_eq.MAX_STEPS, s, y[0], y[1], y[2], y[3], nh, hist[:nh])
 
 
 @compiled()
@@ -292,15 +290,16 @@ def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
     G = g * theta / v0
     law = Shell(lam, G, rR, xt_si / (theta * v0), rg, A / theta)
     atol = rtol * SHELL_ABSOLUTE_FACTOR
-    status, s_end, x_end, w_end, i2, loss, nh, hist = integrate(law, rtol, atol)
+    out = integrate(law, rtol, atol)
+    status, s_end, nh, hist = out.status, out.s, out.nh, out.hist
     s_contact = s_end
     s_force = s_end
-    if status == SEPARATED and law.a != 0.0:
+    if status == _eq.SEPARATED and law.a != 0.0:
         # the last step that starts with a force holds its end
         k = nh - 1
         while k > 0 and shell_force(hist[k, S_X0], hist[k, S_W0], law)[0] <= 0.0:
             k -= 1
-        s_force = min(_root_in_row(hist, k, law, 1), s_end)
+        s_force = min(_root_in_row(hist, k, law, _FORCE), s_end)
     # peaks: on the dense output around the largest step ends
     kx, kf, vx, vf = 0, 0, -1.0, -1.0
     for k in range(nh):
@@ -309,26 +308,26 @@ def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
         fk, _ = shell_force(hist[k, S_X1], hist[k, S_W1], law)
         if fk > vf:
             vf, kf = fk, k
-    x_max = max(vx, _golden_max(hist, nh, kx, s_contact, law, 0))
-    f_max = max(vf, _golden_max(hist, nh, kf, s_contact, law, 1))
-    e = End(status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh)
-    sc = Scales(m, v_in, v0, theta, lam, G, m * v0 / theta)
-    r = impact_row(e, shell_potential(x_end, rR, law.xt, rg), sc)
-    r[R_XT] = law.xt
+    x_max = max(vx, _golden_max(hist, nh, kx, s_contact, law, _DEFLECTION))
+    f_max = max(vf, _golden_max(hist, nh, kf, s_contact, law, _FORCE))
+    e = _eq.End(status, s_contact, s_force, s_end, out.w, out.x, out.i2, out.loss, x_max, f_max, nh)
+    sc = _eq.Scales(m, v_in, v0, theta, lam, G, m * v0 / theta)
+    r = _eq.impact_row(e, shell_potential(out.x, rR, law.xt, rg), sc)
+    r[_eq.R_XT] = law.xt
     return r, hist
 
 
 @compiled()
 def shell_force_slope(d, s, out, slope):
     """Force ``f`` and rate ``df/ds`` (dimensionless) at times ``s`` into ``out``, ``slope``, 0
-    outside ``(0, s_contact)``: ``f' = (N' - f D') / D`` with ``N = f_e + a k_s w``, ``D = 1 +
+    outside ``(0, s_contact]``: ``f' = (N' - f D') / D`` with ``N = f_e + a k_s w``, ``D = 1 +
     a k_s lam``, ``k_s' = -k_s x' / (2 x)`` past the transition."""
     hist, law = d.hist, d.law
     lam, G, rg, a = law.lam, law.G, law.rg, law.a
     nh = hist.shape[0]
     for i in range(s.shape[0]):
         si = s[i]
-        if si <= 0.0 or si >= d.s_contact:
+        if si <= 0.0 or si > d.s_contact:
             out[i] = 0.0
             slope[i] = 0.0
             continue
