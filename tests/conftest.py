@@ -55,6 +55,36 @@ def pytest_configure(config):
     os.environ.setdefault("PYTHONSAFEPATH", "1")
 
 
+#: The kernel groups a second process compiles while the tests run, on an empty numba
+#: cache (synth.warmup.start_ahead): the live engine's and the stiff contact's, which the
+#: presets' renders (the first tests' kernels) do not compile. Set SYNTH_TEST_AHEAD=0 to
+#: compile everything in the test process.
+AHEAD_GROUPS = ("live", "live-rolling", "stiff-contact")
+#: A run of at least this many tests, or of a live engine's test file, compiles ahead.
+AHEAD_MIN_TESTS = 200
+_AHEAD = pytest.StashKey()
+
+
+def pytest_collection_finish(session):
+    """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
+    (the machine's second core) for a run that reaches them."""
+    if os.environ.get("SYNTH_TEST_AHEAD") == "0" or session.config.option.collectonly:
+        return
+    files = {item.path.name for item in session.items}
+    if len(session.items) >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files):
+        from synth import warmup
+
+        session.config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
+
+
+def pytest_sessionfinish(session):
+    """Stop the compiling process if it still runs; say so if it failed."""
+    ahead = session.config.stash.get(_AHEAD, None)
+    errors = ahead.finish() if ahead is not None else None
+    if errors:
+        print(f"\nthe process compiling {ahead.names} ahead failed:\n{errors}", file=sys.stderr)
+
+
 def _check_checkout_packages():
     """Refuse to run if ``benchmarks`` or ``validation`` would be imported from elsewhere than
     this repository (an installed package of the same name comes first on ``sys.path``)."""
