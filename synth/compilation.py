@@ -130,11 +130,23 @@ def lock_file(folder: str | Path, name: str) -> Path:
     return Path(folder) / f"{name}.lock"
 
 
+def same_cache_file(folder: str | Path) -> Path:
+    """The file of the lock folder ``folder`` that holds the ``NUMBA_CACHE_DIR`` of the
+    process compiling ahead (empty: numba's default, beside the sources)."""
+    return Path(folder) / "numba-cache-dir"
+
+
 def wait_for_ahead(name: str) -> None:
-    """Wait while a process compiling ahead holds the lock of the kernel group ``name``
-    (:data:`LOCKS`); return at once without such a process or without POSIX locks."""
+    """Wait while a process compiling ahead into this process's numba cache holds the
+    lock of the kernel group ``name`` (:data:`LOCKS`); return at once without such a
+    process or without POSIX locks."""
     folder = os.environ.get(LOCKS)
     if not folder:
+        return
+    try:
+        if same_cache_file(folder).read_text() != os.environ.get("NUMBA_CACHE_DIR", ""):
+            return
+    except OSError:
         return
     try:
         import fcntl

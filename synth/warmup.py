@@ -17,7 +17,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from synth.compilation import COMPILE_TIMES, GROUPS, LOCKS, CompileLog, is_cached, lock_file
+from synth.compilation import (
+    COMPILE_TIMES,
+    GROUPS,
+    LOCKS,
+    CompileLog,
+    is_cached,
+    lock_file,
+    same_cache_file,
+)
 
 #: Sample rate of the warm-up's renders (Hz): the presets' own rate, which sets no type.
 SAMPLERATE = 48000
@@ -185,23 +193,33 @@ def compile_ahead(folder: str, names: list[str], stream=None) -> None:
 @dataclass
 class Ahead:
     """A child process compiling kernel groups ahead (:func:`start_ahead`): the process,
-    the groups, its lock folder and the file its stderr goes to."""
+    the groups, its lock folder, the file its stderr goes to, and (after :meth:`finish`)
+    its CPU time (s, user + system) and whether it was stopped before the end."""
 
     process: subprocess.Popen
     names: list[str]
     folder: Path
     errors: object  # the temporary file of the child's stderr
+    cpu_seconds: float = 0.0
+    stopped: bool = False
 
     def finish(self) -> str | None:
         """Stop the child if it still runs (what it compiled stays in the cache), remove
         its locks; its error output if it failed, else None."""
-        if self.process.poll() is None:
-            self.process.terminate()
-        status = self.process.wait()
+        if self.process.returncode is None:
+            pid, status, usage = os.wait4(self.process.pid, os.WNOHANG)
+            self.stopped = pid == 0
+            if self.stopped:
+                self.process.terminate()
+                _, status, usage = os.wait4(self.process.pid, 0)
+            self.process.returncode = os.waitstatus_to_exitcode(status)
+            self.cpu_seconds = usage.ru_utime + usage.ru_stime
+        status = self.process.returncode
         self.process.stdout.close()
         os.environ.pop(LOCKS, None)
         for name in self.names:
             lock_file(self.folder, name).unlink(missing_ok=True)
+        same_cache_file(self.folder).unlink(missing_ok=True)
         self.folder.rmdir()
         self.errors.seek(0)
         text = self.errors.read().decode(errors="replace")
@@ -220,6 +238,7 @@ def start_ahead(names: list[str]) -> Ahead | None:
     if not missing:
         return None
     folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-"))
+    same_cache_file(folder).write_text(os.environ.get("NUMBA_CACHE_DIR", ""))
     env = {k: v for k, v in os.environ.items() if k != LOCKS}
     code = "import sys; from synth import warmup; warmup.compile_ahead(sys.argv[1], sys.argv[2:])"
     errors = tempfile.TemporaryFile()

@@ -85,6 +85,26 @@ def pytest_sessionfinish(session):
         print(f"\nthe process compiling {ahead.names} ahead failed:\n{errors}", file=sys.stderr)
 
 
+def pytest_terminal_summary(terminalreporter, config):
+    """The CPU time (user + system) of this process, of the children it waited for (the
+    Pythons the tests start), and of the process that compiled ahead: the test process's
+    own time is the critical path of a run on two cores."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    ahead = config.stash.get(_AHEAD, None)
+    ahead_s = ahead.cpu_seconds if ahead is not None else 0.0
+    line = (
+        f"CPU s: test process {own.ru_utime + own.ru_stime:.1f}, its children "
+        f"{children.ru_utime + children.ru_stime - ahead_s:.1f}"
+    )
+    if ahead is not None:
+        stopped = ", stopped at the end" if ahead.stopped else ""
+        line += f", compiling {', '.join(ahead.names)} ahead {ahead_s:.1f}{stopped}"
+    terminalreporter.write_line(line)
+
+
 def _check_checkout_packages():
     """Refuse to run if ``benchmarks`` or ``validation`` would be imported from elsewhere than
     this repository (an installed package of the same name comes first on ``sys.path``)."""

@@ -114,3 +114,26 @@ def test_the_package_kernels_carry_their_import_closure_stamp():
     assert stamp == ("synth import closure", jitcache.closure_digest(Path(kernels.__file__)))
     closure = {p.name for p in jitcache.import_closure(Path(kernels.__file__))}
     assert "engine.py" not in closure and "equations.py" in closure
+
+
+def test_a_group_compiled_ahead_is_waited_for_in_the_same_cache_only(tmp_path, monkeypatch):
+    import fcntl
+    import threading
+
+    from synth import compilation
+
+    monkeypatch.setenv(compilation.LOCKS, str(tmp_path))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    compilation.same_cache_file(tmp_path).write_text(str(tmp_path / "numba"))
+    holder = open(compilation.lock_file(tmp_path, "live"), "wb")
+    fcntl.flock(holder, fcntl.LOCK_EX)
+    waiter = threading.Thread(target=compilation.wait_for_ahead, args=("live",))
+    waiter.start()
+    waiter.join(0.2)
+    assert waiter.is_alive()  # the group's lock is held: it waits
+    compilation.wait_for_ahead("contact")  # no lock file: this group is not compiled ahead
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "other"))
+    compilation.wait_for_ahead("live")  # another cache: nothing to wait for
+    holder.close()
+    waiter.join(60)
+    assert not waiter.is_alive()
