@@ -102,7 +102,7 @@ def pytest_terminal_summary(terminalreporter, config):
     if ahead is not None:
         stopped = ", stopped at the end" if ahead.stopped else ""
         line += f", compiling {', '.join(ahead.names)} ahead {ahead_s:.1f}{stopped}"
-    terminalreporter.write_line(line)
+    terminalreporter.write_sep("-", line)
 
 
 def _check_checkout_packages():
