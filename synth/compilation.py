@@ -1,14 +1,16 @@
 """First use of the compiled kernels: the options every kernel is compiled with
 (:func:`compiled`), the groups whose compile takes seconds (:data:`GROUPS`), a note once
-per process before a group missing from numba's disk cache compiles (:func:`announce`),
-and the log of every compile with its CPU time (:class:`CompileLog`, for ``synth warmup``
-and ``synth bench cold``).
+per process before a group missing from numba's disk cache compiles (:func:`announce`,
+which first waits for a process compiling that group ahead, :data:`LOCKS`), and the log
+of every compile with its CPU time (:class:`CompileLog`, for ``synth warmup`` and
+``synth bench cold``).
 """
 
 from __future__ import annotations
 
 import importlib
 import json
+import os
 import sys
 import time
 from contextlib import contextmanager
@@ -20,7 +22,7 @@ import numba
 
 from synth import jitcache
 
-jitcache.stamp_with_the_package()
+jitcache.stamp_with_the_import_closure()
 
 #: numba's fast-math flags of a kernel: none, or with ``sums=True`` (the modal bank's
 #: loops over modes, whose sums must vectorise) :data:`FAST_SUMS`. Always given, never
@@ -116,14 +118,57 @@ GROUPS = {
 
 _announced: set[str] = set()
 
+#: Environment variable: a folder of lock files (``GROUP.lock``, :func:`lock_file`) that a
+#: process compiling kernel groups ahead (:func:`synth.warmup.compile_ahead`) holds until
+#: each group is in numba's disk cache. A process about to compile such a group waits for
+#: it, then loads the kernels instead of compiling them a second time at once.
+LOCKS = "SYNTH_COMPILE_LOCKS"
+
+
+def lock_file(folder: str | Path, name: str) -> Path:
+    """The lock file of the kernel group ``name`` in the lock folder ``folder``."""
+    return Path(folder) / f"{name}.lock"
+
+
+def same_cache_file(folder: str | Path) -> Path:
+    """The file of the lock folder ``folder`` that holds the ``NUMBA_CACHE_DIR`` of the
+    process compiling ahead (empty: numba's default, beside the sources)."""
+    return Path(folder) / "numba-cache-dir"
+
+
+def wait_for_ahead(name: str) -> None:
+    """Wait while a process compiling ahead into this process's numba cache holds the
+    lock of the kernel group ``name`` (:data:`LOCKS`); return at once without such a
+    process or without POSIX locks."""
+    folder = os.environ.get(LOCKS)
+    if not folder:
+        return
+    try:
+        if same_cache_file(folder).read_text() != os.environ.get("NUMBA_CACHE_DIR", ""):
+            return
+    except OSError:
+        return
+    try:
+        import fcntl
+
+        handle = open(lock_file(folder, name), "rb")
+    except (ImportError, OSError):  # no POSIX locks, or the group is not compiled ahead
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_SH)
+
 
 def announce(name: str, stream=None) -> None:
-    """Before the first use of the kernel group ``name``: one line on ``stream`` (stderr)
-    if it is not in numba's disk cache, once per process."""
+    """Before the first use of the kernel group ``name``: if it is not in numba's disk
+    cache, wait for a process compiling it ahead (:func:`wait_for_ahead`), then, if it is
+    still missing, one line on ``stream`` (stderr); once per process."""
     if name in _announced:
         return
     _announced.add(name)
     group = GROUPS[name]
+    if is_cached(group):
+        return
+    wait_for_ahead(name)
     if is_cached(group):
         return
     seconds = recorded_seconds().get(name)

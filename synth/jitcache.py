@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import re
 import sys
 import tempfile
 from pathlib import Path
@@ -69,33 +70,130 @@ def configure(environ=None, source_dirs=None, stream=None) -> str | None:
     return None
 
 
-def package_digest(root: Path | None = None) -> str:
-    """SHA-256 (hex) of the Python sources under ``root`` (default: this package): each
-    file's relative path and bytes, in path order."""
-    root = Path(__file__).resolve().parent if root is None else Path(root)
+#: This package's folder; its name is the top of every module name it holds.
+_ROOT = Path(__file__).resolve().parent
+
+
+def _digest(root: Path, files) -> str:
+    """SHA-256 (hex) of ``files`` (under ``root``): each one's relative path and bytes."""
     digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
+    for path in files:
         digest.update(path.relative_to(root).as_posix().encode() + b"\0")
         digest.update(path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
-def stamp_with_the_package() -> None:
-    """Make every kernel of this package's numba cache entry valid for the package's sources
-    as a whole (:func:`package_digest`): a change anywhere recompiles every kernel once.
-    Must run before the first kernel is defined; other packages keep numba's stamp."""
+def _module_file(root: Path, name: str) -> Path | None:
+    """The source of the module ``name`` (dotted, starting with ``root``'s name) under
+    ``root``: ``a/b.py`` or ``a/b/__init__.py``; None if it is no module of the package."""
+    parts = name.split(".")
+    if parts[0] != root.name:
+        return None
+    base = root.joinpath(*parts[1:])
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _module_name(root: Path, path: Path) -> str:
+    """The dotted name of the module whose source is ``path`` under ``root``."""
+    parts = [root.name, *path.relative_to(root).with_suffix("").parts]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+#: ``from X import names`` (names in parentheses over several lines, or to the line's end).
+_FROM = re.compile(r"^[ \t]*from[ \t]+(\.*[\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)", re.M)
+#: ``import X, Y as Z``.
+_IMPORT = re.compile(r"^[ \t]*import[ \t]+([^\n]*)", re.M)
+#: A module-level ``__getattr__`` (PEP 562: names imported on first use).
+_LAZY = re.compile(r"^(def[ \t]+)?__getattr__\b", re.M)
+
+
+def _names(text: str) -> list[str]:
+    """The imported names of an import's tail (``a as b, (c,\n d)  # note``): a, c, d."""
+    text = re.sub(r"#[^\n]*", "", text).replace("(", " ").replace(")", " ")
+    return [part.split()[0] for part in text.split(",") if part.split()]
+
+
+@functools.cache
+def _imported_files(root: Path, path: Path) -> frozenset[Path]:
+    """The package's modules that ``path`` imports anywhere in its text (at the top, in a
+    function, relative or absolute; a line of a docstring that reads as an import counts
+    too, which only widens the set): ``from p import name`` counts the submodule
+    ``p.name`` where there is one, else ``p`` itself. A package whose ``__init__`` has a
+    ``__getattr__`` (names imported on first use, PEP 562) brings all its modules."""
+    text = path.read_text(encoding="utf-8")
+    package = _module_name(root, path)
+    if path.name != "__init__.py":
+        package = package.rpartition(".")[0]
+    found: set[Path] = set()
+
+    def add(name: str) -> bool:
+        source = _module_file(root, name)
+        if source is not None:
+            found.add(source)
+        return source is not None
+
+    for match in _IMPORT.finditer(text):
+        for name in _names(match[1]):
+            add(name)
+    for match in _FROM.finditer(text):
+        base = match[1]
+        level = len(base) - len(base.lstrip("."))
+        if level:
+            anchor = package.rsplit(".", level - 1)[0] if level > 1 else package
+            base = f"{anchor}.{base[level:]}" if base[level:] else anchor
+        for name in _names(match[2]):
+            if name == "*" or not add(f"{base}.{name}"):
+                add(base)
+    if path.name == "__init__.py" and _LAZY.search(text):
+        found.update(path.parent.rglob("*.py"))
+    return frozenset(found)
+
+
+def import_closure(path: Path, root: Path | None = None) -> list[Path]:
+    """The package's sources that the module at ``path`` depends on: itself and, in turn,
+    every module of the package it imports (:func:`_imported_files`), in path order. A
+    compiled kernel can only use code and constants of these files."""
+    root = _ROOT if root is None else Path(root)
+    seen = {Path(path).resolve()}
+    todo = list(seen)
+    while todo:
+        for found in _imported_files(root, todo.pop()):
+            found = found.resolve()
+            if found not in seen:
+                seen.add(found)
+                todo.append(found)
+    return sorted(seen)
+
+
+def closure_digest(path: Path, root: Path | None = None) -> str:
+    """SHA-256 (hex) of the sources of :func:`import_closure` of ``path``."""
+    root = _ROOT if root is None else Path(root)
+    return _digest(root, import_closure(path, root))
+
+
+def stamp_with_the_import_closure() -> None:
+    """Key every kernel of this package in numba's disk cache on the sources its module
+    depends on (:func:`closure_digest`), not on its own file alone (numba's stamp, its
+    modification time and size): a change in a module the kernel's module imports,
+    directly or not, recompiles the kernel (a callee inlined from another file is never
+    served stale), a change anywhere else keeps its cache. Must run before the first
+    kernel is defined; other packages keep numba's stamp."""
     from numba.core import caching
 
     mixin = caching._SourceFileBackedLocatorMixin
     if getattr(mixin, "synth_stamp", False):
         return
     own_stamp = mixin.get_source_stamp
-    root = str(Path(__file__).resolve().parent) + os.sep
-    digest = functools.cache(package_digest)
+    root = str(_ROOT) + os.sep
+    digest = functools.cache(closure_digest)
 
     def get_source_stamp(self):
-        if os.path.realpath(self._py_file).startswith(root):
-            return ("synth package", digest())
+        path = os.path.realpath(self._py_file)
+        if path.startswith(root):
+            return ("synth import closure", digest(Path(path)))
         return own_stamp(self)
 
     mixin.get_source_stamp = get_source_stamp

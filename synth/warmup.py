@@ -2,16 +2,30 @@
 
 numba compiles for the argument types of a kernel's first call, so the warm-up runs what
 calls the kernels on real inputs (the presets' renders, the live engine offline, a rolling
-voice, an analysis), recording each step's compiles and their CPU time.
+voice, an analysis), recording each step's compiles and their CPU time. A second process
+can compile some kernel groups ahead while this one works (:func:`start_ahead`).
 """
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
-from synth.compilation import COMPILE_TIMES, CompileLog
+from synth.compilation import (
+    COMPILE_TIMES,
+    GROUPS,
+    LOCKS,
+    CompileLog,
+    is_cached,
+    lock_file,
+    same_cache_file,
+)
 
 #: Sample rate of the warm-up's renders (Hz): the presets' own rate, which sets no type.
 SAMPLERATE = 48000
@@ -148,3 +162,95 @@ def record(done: list[Step]) -> str:
 
 def _total(done: list[Step]) -> CompileLog:
     return CompileLog([c for step in done for c in step.log.compiles])
+
+
+#: The action that compiles each kernel group a second process can compile ahead
+#: (:func:`compile_ahead`): the groups the presets' renders do not reach.
+AHEAD = {"live": _live, "live-rolling": _live_rolling, "stiff-contact": _stiff_contact}
+
+#: The line :func:`compile_ahead` prints once it holds every lock.
+HOLDING = "holding"
+
+
+def compile_ahead(folder: str, names: list[str], stream=None) -> None:
+    """Compile the kernel groups ``names`` (keys of :data:`AHEAD`) in this order, each
+    under its lock in ``folder`` (:data:`synth.compilation.LOCKS`): every lock is taken
+    before the first compile (then :data:`HOLDING` on ``stream``, stdout), and each is
+    given back once its group is in numba's disk cache."""
+    import fcntl
+
+    handles = []
+    for name in names:
+        handle = open(lock_file(folder, name), "wb")
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        handles.append(handle)
+    print(HOLDING, file=sys.stdout if stream is None else stream, flush=True)
+    for name, handle in zip(names, handles, strict=True):
+        AHEAD[name]()
+        handle.close()
+
+
+@dataclass
+class Ahead:
+    """A child process compiling kernel groups ahead (:func:`start_ahead`): the process,
+    the groups, its lock folder, the file its stderr goes to, and (after :meth:`finish`)
+    its CPU time (s, user + system) and whether it was stopped before the end."""
+
+    process: subprocess.Popen
+    names: list[str]
+    folder: Path
+    errors: object  # the temporary file of the child's stderr
+    cpu_seconds: float = 0.0
+    stopped: bool = False
+
+    def finish(self) -> str | None:
+        """Stop the child if it still runs (what it compiled stays in the cache), remove
+        its locks; its error output if it failed, else None."""
+        if self.process.returncode is None:
+            pid, status, usage = os.wait4(self.process.pid, os.WNOHANG)
+            self.stopped = pid == 0
+            if self.stopped:
+                self.process.terminate()
+                _, status, usage = os.wait4(self.process.pid, 0)
+            self.process.returncode = os.waitstatus_to_exitcode(status)
+            self.cpu_seconds = usage.ru_utime + usage.ru_stime
+        status = self.process.returncode
+        self.process.stdout.close()
+        os.environ.pop(LOCKS, None)
+        for name in self.names:
+            lock_file(self.folder, name).unlink(missing_ok=True)
+        same_cache_file(self.folder).unlink(missing_ok=True)
+        self.folder.rmdir()
+        self.errors.seek(0)
+        text = self.errors.read().decode(errors="replace")
+        self.errors.close()
+        return text if status > 0 else None
+
+
+def start_ahead(names: list[str]) -> Ahead | None:
+    """Start a child process that compiles those of the kernel groups ``names`` that are
+    not in numba's disk cache (:func:`compile_ahead`), while this one goes on, and return
+    once it holds their locks; this process and its children (:data:`LOCKS` in the
+    environment) then wait for a group it holds rather than compile it too. None if
+    every group is cached, or the child ended before it held the locks (POSIX locks
+    missing)."""
+    missing = [name for name in names if not is_cached(GROUPS[name])]
+    if not missing:
+        return None
+    folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-"))
+    same_cache_file(folder).write_text(os.environ.get("NUMBA_CACHE_DIR", ""))
+    env = {k: v for k, v in os.environ.items() if k != LOCKS}
+    code = "import sys; from synth import warmup; warmup.compile_ahead(sys.argv[1], sys.argv[2:])"
+    errors = tempfile.TemporaryFile()
+    process = subprocess.Popen(
+        [sys.executable, "-c", code, str(folder), *missing],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=errors,
+    )
+    ahead = Ahead(process, missing, folder, errors)
+    if process.stdout.readline().decode().strip() != HOLDING:
+        ahead.finish()
+        return None
+    os.environ[LOCKS] = str(folder)
+    return ahead

@@ -55,6 +55,56 @@ def pytest_configure(config):
     os.environ.setdefault("PYTHONSAFEPATH", "1")
 
 
+#: The kernel groups a second process compiles while the tests run, on an empty numba
+#: cache (synth.warmup.start_ahead): the live engine's and the stiff contact's, which the
+#: presets' renders (the first tests' kernels) do not compile. Set SYNTH_TEST_AHEAD=0 to
+#: compile everything in the test process.
+AHEAD_GROUPS = ("live", "live-rolling", "stiff-contact")
+#: A run of at least this many tests, or of a live engine's test file, compiles ahead.
+AHEAD_MIN_TESTS = 200
+_AHEAD = pytest.StashKey()
+
+
+def pytest_collection_finish(session):
+    """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
+    (the machine's second core) for a run that reaches them."""
+    if os.environ.get("SYNTH_TEST_AHEAD") == "0" or session.config.option.collectonly:
+        return
+    files = {item.path.name for item in session.items}
+    if len(session.items) >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files):
+        from synth import warmup
+
+        session.config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
+
+
+def pytest_sessionfinish(session):
+    """Stop the compiling process if it still runs; say so if it failed."""
+    ahead = session.config.stash.get(_AHEAD, None)
+    errors = ahead.finish() if ahead is not None else None
+    if errors:
+        print(f"\nthe process compiling {ahead.names} ahead failed:\n{errors}", file=sys.stderr)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """The CPU time (user + system) of this process, of the children it waited for (the
+    Pythons the tests start), and of the process that compiled ahead: the test process's
+    own time is the critical path of a run on two cores."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    ahead = config.stash.get(_AHEAD, None)
+    ahead_s = ahead.cpu_seconds if ahead is not None else 0.0
+    line = (
+        f"CPU s: test process {own.ru_utime + own.ru_stime:.1f}, its children "
+        f"{children.ru_utime + children.ru_stime - ahead_s:.1f}"
+    )
+    if ahead is not None:
+        stopped = ", stopped at the end" if ahead.stopped else ""
+        line += f", compiling {', '.join(ahead.names)} ahead {ahead_s:.1f}{stopped}"
+    terminalreporter.write_sep("-", line)
+
+
 def _check_checkout_packages():
     """Refuse to run if ``benchmarks`` or ``validation`` would be imported from elsewhere than
     this repository (an installed package of the same name comes first on ``sys.path``)."""
