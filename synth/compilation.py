@@ -23,6 +23,7 @@ import numba
 from synth import jitcache
 
 jitcache.stamp_with_the_import_closure()
+jitcache.keep_kernels_the_cache_cannot_hold()
 
 #: numba's fast-math flags of a kernel: none, or with ``sums=True`` (the modal bank's
 #: loops over modes, whose sums must vectorise) :data:`FAST_SUMS`. Always given, never

@@ -208,3 +208,36 @@ def _disable_caching() -> None:
 
 
 configure()
+
+
+def keep_kernels_the_cache_cannot_hold() -> None:
+    """A kernel of this package whose cache entry cannot be written (a full disk, a file
+    size limit, ``ulimit -f``) runs all the same from memory, with one note on stderr per
+    process; numba would raise the OSError out of the compile and fail the call. numba
+    writes each cache file to a temporary name and renames it, so nothing partial is left."""
+    from numba.core import caching
+
+    cache = caching.Cache
+    if getattr(cache, "synth_keeps", False):
+        return
+    own_save = cache.save_overload
+    root = str(_ROOT) + os.sep
+    noted = []
+
+    def save_overload(self, sig, data):
+        try:
+            own_save(self, sig, data)
+        except OSError as exc:
+            if not os.path.realpath(self._py_func.__code__.co_filename).startswith(root):
+                raise
+            if not noted:
+                noted.append(exc)
+                print(
+                    f"synth: note: numba's cache could not be written ({exc.strerror or exc});"
+                    " the compiled code is kept for this run only",
+                    file=sys.stderr,
+                    flush=True,
+                )
+
+    cache.save_overload = save_overload
+    cache.synth_keeps = True

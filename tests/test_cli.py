@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_run import run
 
 from synth.cli import build_parser, main
 from synth.io.presets import load_preset
@@ -19,13 +20,6 @@ from synth.physics.bounces import STOP_REASONS, simulate_scene
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT = REPO / "synth" / "presets" / "default.toml"
 ROW_KEYS = {"n", "time", "speed", "restitution", "contact_time", "peak_force", "inelasticity"}
-
-
-def run(capsys, *argv):
-    """Exit status, stdout and stderr of ``synth ARGV``."""
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def data_rows(text):

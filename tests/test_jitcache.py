@@ -137,3 +137,26 @@ def test_a_group_compiled_ahead_is_waited_for_in_the_same_cache_only(tmp_path, m
     holder.close()
     waiter.join(60)
     assert not waiter.is_alive()
+
+
+def test_a_kernel_runs_when_its_cache_entry_cannot_be_written(tmp_path):
+    # Under a file size limit of 1 kB (ulimit -f) numba's cache file of a compiled kernel
+    # cannot be written: numba would raise EFBIG out of the call; the kernel runs from memory
+    # (exp(0.5) to float rounding) and one note says why it is not kept; no file is left.
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1024, resource.RLIM_INFINITY))
+
+    cache = tmp_path / "numba-cache"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    code = "from synth.vecmath import exp_small; print(repr(exp_small(0.5)))"
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300,
+        preexec_fn=limit,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert abs(float(done.stdout) - 1.6487212707001282) < 1e-15
+    notes = done.stderr.splitlines()
+    assert len(notes) == 1 and "numba's cache could not be written" in notes[0], notes
+    assert not [p for p in cache.rglob("*") if p.is_file() and ".tmp." in p.name]

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_run import run
 
 import synth
 from synth import jitcache
@@ -25,12 +26,6 @@ from synth.sound.render import modal_model, render
 from synth.store import audio as audio_io
 
 REPO = Path(__file__).resolve().parent.parent
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def leftovers(folder: Path) -> list[str]:

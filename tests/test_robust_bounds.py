@@ -10,18 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import soundfile
+from cli_run import run
 
-from synth.cli import main
 from synth.errors import ParameterError
 from synth.store import cache
 
 REPO_PRESETS = Path(__file__).resolve().parent.parent / "synth" / "presets"
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 # --------------------------------------------------------------------------- silent wrong

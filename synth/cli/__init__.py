@@ -73,7 +73,11 @@ def main(argv=None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except OSError as exc:  # the system refused: full disk, read-only folder, I/O error
+        import errno
+
         where = f" ({exc.filename})" if exc.filename else ""
+        if exc.errno == errno.EFBIG:
+            where += " (this process' file size limit: ulimit -f)"
         print(f"synth: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1
     except Terminated:

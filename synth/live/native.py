@@ -2,8 +2,7 @@
 PortAudio's ``PaStreamCallback`` signature working on the engine's preallocated state
 (:mod:`synth.live.state`) through addresses (``ctl``'s as ``userData``, as python-rtmixer
 does): no GIL, allocation or lock. The rolling block is compiled apart, called through
-``ctl[ROLLER]``. numba keys this file's cache on the file alone: after changing a kernel it
-calls, delete ``synth/live/__pycache__/native.*``.
+``ctl[ROLLER]``.
 """
 
 from __future__ import annotations

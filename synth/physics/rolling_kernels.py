@@ -2,9 +2,6 @@
 force law, integrated by Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19 (1980);
 Hairer, Norsett & Wanner, "Solving ODEs I", II.5) with steps ending on every sample boundary;
 a flight is a parabola in closed form.
-
-numba's cache keys these kernels on this file only: after editing
-``contact_kernels/equations.py`` or ``surface.py``, clear ``synth/physics/__pycache__``.
 """
 
 from __future__ import annotations

@@ -1,8 +1,5 @@
 """numba kernels and drivers of the contact solver (docs/physics.md, "Hertz contact"); DOP853
 and Radau IIA after Hairer, Norsett & Wanner, "Solving ODEs I" II.10 and "II" IV.8.
-
-numba's cache keys a kernel on its own file: after editing one of these modules, clear the
-``__pycache__`` folders so that its callers compile again.
 """
 
 from __future__ import annotations
