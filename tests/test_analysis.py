@@ -389,6 +389,16 @@ def test_bounce_order_drops_what_breaks_a_series():
     on = np.array([0.0, 100.0, 175.0, 180.0, 240.0])
     kept = _bounce_order(on, np.array([40.0, 35.0, 2.0, 30.0, 25.0]), 0.1)
     assert list(on[kept]) == [0.0, 100.0, 180.0, 240.0]
+    # the first search of an engine render (20 mm aluminium ball dropped 24 cm on a 3 mm
+    # clamped plywood plate, accelerometer, 44.1 kHz; onsets in ms, strengths in dB): a
+    # weak tick (2.7 dB) continues the series (its bounce 0.63 times the one before, 0.60
+    # then) and a weaker-looking remainder (3.7 dB) follows it 1.3 ms later; the bounce
+    # across the tick (0.71) also continues the series, but less well than the tick's own:
+    # the remainder goes, not the impact (within 0.6 ms of the scheduler's impact, inside
+    # the 1 ms of the random scenes' match; the remainder 1.8 ms after it)
+    on = np.array([5.30, 251.92, 391.27, 470.73, 516.91, 544.35, 560.90, 571.32, 572.60, 640.03])
+    st = np.array([15.3, 47.3, 44.1, 28.5, 16.4, 15.2, 9.6, 2.7, 3.7, 2.0])
+    assert list(on[_bounce_order(on, st, 0.1)]) == list(on[:8])
 
 
 def test_bounce_order_keeps_a_series_with_a_missed_tick():
