@@ -45,9 +45,9 @@ RESONATOR_GAIN_DB = 20.0
 CLEAN_GUARD = 0.002
 #: Step 7 fits the free ringing over at most this many times the largest predictor order: the
 #: final prediction error of an order ``p`` fitted over ``N`` samples is ``(N + p) / (N - p)``
-#: times the innovation's (Akaike 1970, Ann. Inst. Stat. Math. 22, 203), 0.5 dB at ``N = 17 p``;
+#: times the innovation's (Akaike 1970, Ann. Inst. Stat. Math. 22, 203), 0.1 dB at ``N = 87 p``;
 #: a longer stretch (a single impact ringing for seconds) costs time, not accuracy.
-RINGING_FIT_ORDERS = 17
+RINGING_FIT_ORDERS = 87
 
 
 @dataclass(frozen=True)
