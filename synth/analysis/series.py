@@ -177,7 +177,8 @@ def _split_bounce(on, strengths, kept: list, i: int, e_min: float) -> bool:
 
 def _drop_splits(on, strengths, kept: list) -> None:
     """Drop from ``kept`` each unsure tick between two others when the bounce across it continues
-    the series' restitution (within :data:`RESTITUTION_STEP`) and its two bounces do not."""
+    the series' restitution (within :data:`RESTITUTION_STEP`) and its two bounces do not; the
+    unsure tick after it instead where the bounce to it continues the series better still."""
     k = 3
     while k + 1 < len(kept):
         t = on[kept[k - 3 : k + 2]]
@@ -188,7 +189,9 @@ def _drop_splits(on, strengths, kept: list) -> None:
                 abs((t[4] - t[3]) / (t[3] - t[2]) / e_before - 1.0),
             )
             merged = abs((t[4] - t[2]) / (t[2] - t[1]) / e_before - 1.0)
-            if merged < RESTITUTION_STEP < split:
-                del kept[k]
+            if merged < RESTITUTION_STEP < split:  # the unsure tick after it instead where
+                # the bounce to this one continues the series better than the one across it
+                alone = abs((t[3] - t[2]) / (t[2] - t[1]) / e_before - 1.0)
+                del kept[k + (alone < merged and strengths[kept[k + 1]] < ANCHOR_DB)]
                 continue
         k += 1
