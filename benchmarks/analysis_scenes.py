@@ -317,6 +317,17 @@ def faults(truth: Truth, ticks: list) -> tuple[list, list, list]:
     return false, impossible, list(truth.onsets[truth.audible & ~matched])
 
 
+def _unique(ticks: list) -> list:
+    """``ticks`` in their order, each once (a false tick may report an impossible value)."""
+    return [t for n, t in enumerate(ticks) if not any(t is u for u in ticks[:n])]
+
+
+def _fault_line(t, false: bool, impossible: bool) -> str:
+    """One line naming a faulty tick: false, impossible (with what it reports), or both."""
+    kinds = ["false"] * false + [f"impossible (e {t.restitution}, flags {t.flags})"] * impossible
+    return f"{' and '.join(kinds)} tick at {t.time:.5f} s"
+
+
 def impossible_value(t, truth: Truth, impacts: list) -> bool:
     """Whether the tick ``t`` reports a value that contradicts physics or ``truth``.
 
@@ -419,11 +430,7 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
     duration = truth.audio.size / truth.samplerate
     ticks, error, seconds = timed_analysis(truth.audio, truth.samplerate, limit)
     false, impossible, missed = faults(truth, ticks)
-    listed = [  # each fault, to read one by one
-        ("false" if t in false else f"impossible (e {t.restitution}, flags {t.flags})")
-        + f" tick at {t.time:.5f} s"
-        for t in false + impossible
-    ]
+    listed = [_fault_line(t, t in false, t in impossible) for t in _unique(false + impossible)]
     if missed:
         listed.append(f"audible impacts missed at {np.round(missed, 5).tolist()} s")
         listed.append(missed_detail(truth, missed))
