@@ -417,3 +417,17 @@ def test_roller_blocks_give_the_bits_of_one_roll(pair):
     assert sum(b.flights for b in blocks) == whole.flights
     assert roller.mechanical_energy(roller.initial_state(speeds[0], 0.01)) == whole.energy.initial
     assert roller.mechanical_energy(state) == whole.energy.final
+
+
+def test_an_unknown_option_is_named_with_every_allowed_one(pair):
+    # Roller.over takes its settings and the contact law's options as keywords: a misspelt
+    # one is refused naming it, its value and both lists (not the law's list alone).
+    ball, plate = pair
+    env = sinusoid_envelope(ball.radius)
+    with pytest.raises(
+        ParameterError,
+        match=r"^gravty=9.8 is no option of a rolling: .*"
+        r"admittance, gravity, rtol, landing_speed, dissipation, .*layer_depth$",
+    ):
+        rolling.roll(ball, plate, env, speed=0.1, samplerate=SAMPLERATE, origin=(0.1, 0.3),
+                     duration=0.01, gravty=9.8)  # fmt: skip

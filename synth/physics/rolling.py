@@ -18,7 +18,7 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import rolling_kernels as _k
 from synth.physics.contact_law import ContactLaw, contact_parameters
-from synth.physics.scene import MAX_GRAVITY, Ball, Plate, check_type
+from synth.physics.scene import LAW_OPTIONS, MAX_GRAVITY, Ball, Plate, check_type
 from synth.physics.surface import ContactEnvelope, envelope_at, read_only, samples
 
 #: Most integration steps per sample period before the solver gives up.
@@ -190,6 +190,12 @@ class Roller:
             raise ParameterError(
                 f"envelope.radius={envelope.radius!r} must be the ball's radius "
                 f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+            )
+        unknown = sorted(set(options) - set(SETTINGS) - set(LAW_OPTIONS))
+        if unknown:
+            raise ParameterError(
+                f"{unknown[0]}={options[unknown[0]]!r} is no option of a rolling: give one of "
+                f"{', '.join([*SETTINGS, *LAW_OPTIONS])}"
             )
         o = {k: options.pop(k, default) for k, default in SETTINGS.items()}
         beta = (
