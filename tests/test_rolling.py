@@ -427,7 +427,7 @@ def test_an_unknown_option_is_named_with_every_allowed_one(pair):
     with pytest.raises(
         ParameterError,
         match=r"^gravty=9.8 is no option of a rolling: .*"
-        r"admittance, gravity, rtol, landing_speed, dissipation, .*layer_depth$",
+        r"admittance, gravity, rtol, landing_speed, surface, dissipation, .*layer_depth$",
     ):
         rolling.roll(ball, plate, env, speed=0.1, samplerate=SAMPLERATE, origin=(0.1, 0.3),
                      duration=0.01, gravty=9.8)  # fmt: skip

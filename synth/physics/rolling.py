@@ -191,11 +191,12 @@ class Roller:
                 f"envelope.radius={envelope.radius!r} must be the ball's radius "
                 f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
             )
-        unknown = sorted(set(options) - set(SETTINGS) - set(LAW_OPTIONS))
+        known = (*SETTINGS, "surface", *LAW_OPTIONS)  # the rest go to contact_parameters
+        unknown = sorted(set(options) - set(known))
         if unknown:
             raise ParameterError(
                 f"{unknown[0]}={options[unknown[0]]!r} is no option of a rolling: give one of "
-                f"{', '.join([*SETTINGS, *LAW_OPTIONS])}"
+                f"{', '.join(known)}"
             )
         o = {k: options.pop(k, default) for k, default in SETTINGS.items()}
         beta = (
