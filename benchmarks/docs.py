@@ -54,7 +54,6 @@ def docs_dir() -> Path:
 
 def materials_page() -> str:
     """The text of docs/materials.md: the built-in material table with a row's full source."""
-    from synth.physics import materials
 
     return (
         "# Materials\n\n"
@@ -67,7 +66,7 @@ def materials_page() -> str:
         "column does and where each value comes from: [physics.md, Materials]"
         "(physics.md#materials); the works cited: [physics.md, References]"
         "(physics.md#references).\n\n"
-        + materials.table_markdown()
+        + table_markdown()
         + "\n"
         + contact_losses_section()
         + "\n"
@@ -77,6 +76,29 @@ def materials_page() -> str:
         + "\n"
         + tennis_ball_section()
     )
+
+
+def damping_text(d) -> str:
+    """A damping law as the materials table states it."""
+    from synth.physics.materials import LossFactor
+
+    if isinstance(d, LossFactor):
+        return f"loss factor {d.eta:.3g}"
+    return f"Rayleigh alpha {d.alpha:g} 1/s, beta {d.beta:g} s"
+
+
+def table_markdown() -> str:
+    """The built-in table in Markdown: density (kg/m^3), E (GPa), nu, damping, source."""
+    from synth.physics.materials import TABLE, names
+
+    lines = ["| name | density (kg/m^3) | E (GPa) | nu | damping | source |", "|" + "---|" * 6]
+    for m in (TABLE[key] for key in names()):
+        source = m.source.replace("|", "\\|")
+        lines.append(
+            f"| {m.name} | {m.density:g} | {m.young / 1e9:.4g} | {m.poisson:g} | "
+            f"{damping_text(m.damping)} | {source} |"
+        )
+    return "\n".join(lines) + "\n"
 
 
 #: The surfaces of the contact-loss table of docs/materials.md: 0.1 m thick, 1 m square
@@ -111,7 +133,7 @@ def contact_losses_section() -> str:
         es = " | ".join(f"{r.restitution:.2f}" for r in results)
         tau = results[LOSS_TABLE_SURFACES.index("granite")].contact_time * 1e6
         law = materials.TABLE[name].damping
-        law_text = materials.damping_text(law)
+        law_text = damping_text(law)
         lines.append(f"| {name} | {law_text} | {es} | {tau:.0f} |")
     return (
         "## Contact losses\n\n"

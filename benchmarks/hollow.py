@@ -548,19 +548,27 @@ ITF_DEFORMATION_LOAD = 8.165 * 9.80665
 ITF_FORWARD_DEFORMATION = (5.59e-3, 7.37e-3)
 
 
+def shell_elastic_force(law, delta):
+    """The elastic force ``F_e`` (N) of a :class:`~synth.physics.contact_law.ShellLaw` at the
+    deflection ``delta`` (m, >= 0): ``min(k_R delta, C_P delta^(1/2)) + k_g delta``."""
+    d = np.asarray(delta, dtype=float)
+    shell = np.minimum(law.reissner_stiffness * d, law.pogorelov_constant * np.sqrt(d))
+    return shell + law.gas_stiffness * d
+
+
 def static_compression(ball, load: float) -> float:
     """The shortening (m) of a hollow ``ball``'s diameter pressed between two rigid flats by
     ``load`` (N): twice the deflection of one flat contact whose elastic force (the shell
-    law's, :meth:`~synth.physics.contact_law.ShellLaw.elastic_force`) is ``load``."""
+    law's, :func:`shell_elastic_force`) is ``load``."""
     from scipy.optimize import brentq
 
     from synth.physics.contact_law import shell_law
 
     law = shell_law(ball)
     upper = load / law.stiffness
-    while law.elastic_force(upper) < load:  # beyond delta_t the law is softer than k0
+    while shell_elastic_force(law, upper) < load:  # beyond delta_t the law is softer than k0
         upper *= 2.0
-    return 2.0 * brentq(lambda d: float(law.elastic_force(d)) - load, 0.0, upper, xtol=1e-15)
+    return 2.0 * brentq(lambda d: float(shell_elastic_force(law, d)) - load, 0.0, upper, xtol=1e-15)
 
 
 def itf_deformation_note() -> str:

@@ -10,11 +10,12 @@ import pytest
 
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
-from synth.physics.bounces import bounce_time_restitution, simulate_bounces
+from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import solve_impact
 from synth.physics.contact_law import contact_parameters
 from synth.physics.scene import Ball, Plate
 from validation import adhesion_loss, air_film_loss
+from validation.series import bounce_time_restitution
 
 STEEL = Ball("steel", 0.005, 4.17e-3)
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)

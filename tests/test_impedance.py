@@ -9,6 +9,8 @@ import pytest
 from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics.scene import Plate
+from validation.rows import corner_impedance, edge_impedance
+from validation.shear import kirchhoff_wave_speeds, mindlin_band_impedance
 
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
 #: The 18 mm board with a transverse shear modulus a fifth of the isotropic one (about MDF's
@@ -32,8 +34,8 @@ def test_infinite_plate_impedance_two_forms_agree():
 def test_edge_and_corner_values():
     # Eichler's free edge 0.29 Z_inf and the thesis' thick-board corner ratio 7.5 (exact).
     z = impedance.infinite_plate_impedance(MDF18)
-    assert impedance.edge_impedance(MDF18) == pytest.approx(0.29 * z, rel=1e-12)
-    assert impedance.corner_impedance(MDF18) == pytest.approx(z / 7.5, rel=1e-12)
+    assert edge_impedance(MDF18) == pytest.approx(0.29 * z, rel=1e-12)
+    assert corner_impedance(MDF18) == pytest.approx(z / 7.5, rel=1e-12)
 
 
 def test_point_admittance_regimes():
@@ -254,11 +256,11 @@ def test_mindlin_group_speed_is_the_dispersion_slope(plate):
         k = np.sqrt(impedance.mindlin_wavenumbers(plate, np.array([w - dw, w + dw]))[0])
         speeds = impedance.mindlin_wave_speeds(plate, f)
         assert speeds.group == pytest.approx(2.0 * dw / (k[1] - k[0]), rel=1e-6)
-        thin = impedance.kirchhoff_wave_speeds(plate, f)
+        thin = kirchhoff_wave_speeds(plate, f)
         assert speeds.phase < thin.phase and speeds.group < thin.group
     low, thin = (
         impedance.mindlin_wave_speeds(plate, 1.0),
-        impedance.kirchhoff_wave_speeds(plate, 1.0),
+        kirchhoff_wave_speeds(plate, 1.0),
     )
     assert low.phase == pytest.approx(thin.phase, rel=1e-3)
     assert low.group == pytest.approx(thin.group, rel=1e-3)
@@ -281,9 +283,9 @@ def test_mindlin_band_impedance():
     # over a narrow band 1 / Re Y at its middle (the band's curvature, 1e-6); over 0-10 kHz
     # of the isotropic 18 mm board 1327 N s/m (docs/physics.md, Thick plates; rounding).
     z_inf = impedance.infinite_plate_impedance(MDF18)
-    assert impedance.mindlin_band_impedance(MDF18, 0.0, 1.0) == pytest.approx(z_inf, rel=1e-4)
-    narrow = impedance.mindlin_band_impedance(SOFT18, 4999.0, 5001.0)
+    assert mindlin_band_impedance(MDF18, 0.0, 1.0) == pytest.approx(z_inf, rel=1e-4)
+    narrow = mindlin_band_impedance(SOFT18, 4999.0, 5001.0)
     assert narrow == pytest.approx(1.0 / impedance.mindlin_point_admittance(SOFT18, 5e3), rel=1e-6)
-    assert impedance.mindlin_band_impedance(MDF18, 0.0, 1e4) == pytest.approx(1327.0, abs=0.5)
+    assert mindlin_band_impedance(MDF18, 0.0, 1e4) == pytest.approx(1327.0, abs=0.5)
     with pytest.raises(ParameterError, match="high"):
-        impedance.mindlin_band_impedance(MDF18, 2e3, 1e3)
+        mindlin_band_impedance(MDF18, 2e3, 1e3)

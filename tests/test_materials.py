@@ -7,6 +7,7 @@ import re
 import numpy as np
 import pytest
 
+from benchmarks.docs import table_markdown
 from synth.errors import ParameterError
 from synth.physics import materials
 from synth.physics.materials import TABLE, LossFactor, Material, Rayleigh, get, names, resolve
@@ -355,7 +356,7 @@ def test_loss_factor_accepts_range(eta):
 
 def test_table_markdown_lists_every_row():
     # One Markdown line per table row, in name order, whose numbers round-trip to the row.
-    text = materials.table_markdown()
+    text = table_markdown()
     lines = text.strip().split("\n")
     # Header, separator, then one line per row in name order.
     assert len(lines) == 2 + len(TABLE)
@@ -373,7 +374,7 @@ def test_table_markdown_lists_every_row():
 
 def test_table_markdown_rejects_pipe_breaking_rows():
     # A '|' inside a source must be escaped, or it would split the Markdown row.
-    text = materials.table_markdown()
+    text = table_markdown()
     for line in text.strip().split("\n")[2:]:
         assert line.replace("\\|", "").count("|") == 7
 

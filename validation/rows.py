@@ -306,8 +306,8 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     z_inf = impedance.infinite_plate_impedance(plate)
     engine_z = {
         "middle": z_inf,
-        "edge": impedance.edge_impedance(plate),
-        "corner": impedance.corner_impedance(plate),
+        "edge": edge_impedance(plate),
+        "corner": corner_impedance(plate),
     }
     for where, (model, measured) in THESIS_IMPEDANCE.items():
         note = (
@@ -471,3 +471,13 @@ def format_thesis(c: dict) -> str:
     if c.get("loss_laws") is not None:
         lines += ["", format_loss_law_study(c["loss_laws"])]
     return "\n".join(lines)
+
+
+def edge_impedance(plate) -> float:
+    """Driving-point impedance at a free straight edge, ``0.29 Z_inf``, N s/m."""
+    return impedance.EDGE_RATIO * impedance.infinite_plate_impedance(plate)
+
+
+def corner_impedance(plate) -> float:
+    """Driving-point impedance at a free corner, ``Z_inf / 7.5``, N s/m."""
+    return impedance.CORNER_RATIO * impedance.infinite_plate_impedance(plate)

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from synth.errors import ParameterError
 from validation.modal import LATE_SPEED_BINS
 from validation.rows import (
     DECAY_SMOOTHING,
@@ -107,7 +108,6 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     """The end-of-series rows of :func:`thesis_lowspeed_rows`: ``seq`` the fitted model's
     series of ``scene``, ``found`` the analysis of its render."""
     from synth.physics import modal_contact as mc
-    from synth.physics.bounces import bounce_time_restitution
     from synth.physics.contact_law import contact_parameters
 
     c = scene.contact
@@ -324,3 +324,15 @@ def _microphone_rows(scene, seq, fs: int) -> list:
                 )
             )
     return rows
+
+
+def bounce_time_restitution(seq) -> list[float]:
+    """The restitution as the thesis measures it from bounce times (section 3.1), ``e_n = t_n /
+    t_(n-1)``, impacts 2 to N - 1; contact times raise it by about ``(tau_n / e - tau_(n-1)) /
+    t_(n-1)`` (docs/analysis.md)."""
+    from synth.physics.bounces import BounceSequence
+
+    if not isinstance(seq, BounceSequence):
+        raise ParameterError(f"seq={seq!r} must be a BounceSequence")
+    t = [i.time for i in seq]
+    return [(t[k + 1] - t[k]) / (t[k] - t[k - 1]) for k in range(1, len(t) - 1)]

@@ -271,16 +271,6 @@ class _ModalSeries(_Series):
         return None, t_next, v_next
 
 
-def bounce_time_restitution(seq: BounceSequence) -> list[float]:
-    """The restitution as the thesis measures it from bounce times (section 3.1), ``e_n = t_n /
-    t_(n-1)``, impacts 2 to N - 1; contact times raise it by about ``(tau_n / e - tau_(n-1)) /
-    t_(n-1)`` (docs/analysis.md)."""
-    if not isinstance(seq, BounceSequence):
-        raise ParameterError(f"seq={seq!r} must be a BounceSequence")
-    t = [i.time for i in seq]
-    return [(t[k + 1] - t[k]) / (t[k] - t[k - 1]) for k in range(1, len(t) - 1)]
-
-
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene`; with a horizontal
     velocity its bounces until it rolls (only option: ``max_duration``)."""

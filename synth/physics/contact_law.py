@@ -7,10 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numpy as np
-
 from synth import checks
-from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, contact_surface, has_contact_surface
 from synth.physics.materials import get as get_material
@@ -42,12 +39,6 @@ def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -
     the Winkler layer's ``h``, m (default: the plate thickness)."""
     h = plate.thickness if depth is None else checks.positive("layer_depth", depth, "metres")
     return math.pi * plate.material.effective_modulus * ball.radius / h
-
-
-def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> float:
-    """Static Hertz penetration ``(m g / K)^(2/3)`` (thesis 2.48), m; ``gravity`` in m/s^2."""
-    g = checks.positive("gravity", gravity, "m/s^2")
-    return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
 @dataclass(frozen=True)
@@ -91,12 +82,6 @@ class ShellLaw:
     def transition(self) -> float:
         """Deflection (m) where Reissner's and Pogorelov's laws meet (the smaller force holds)."""
         return (self.pogorelov_constant / self.reissner_stiffness) ** 2
-
-    def elastic_force(self, delta):
-        """The elastic force ``F_e`` (N) at the deflection ``delta`` (m, >= 0)."""
-        d = np.asarray(delta, dtype=float)
-        shell = np.minimum(self.reissner_stiffness * d, self.pogorelov_constant * np.sqrt(d))
-        return shell + self.gas_stiffness * d
 
 
 def reissner_stiffness(ball: HollowBall) -> float:

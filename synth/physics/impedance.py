@@ -30,16 +30,6 @@ def infinite_plate_impedance(plate: Plate) -> float:
     return 8.0 * math.sqrt(plate.flexural_rigidity * plate.surface_density)
 
 
-def edge_impedance(plate: Plate) -> float:
-    """Driving-point impedance at a free straight edge, ``0.29 Z_inf``, N s/m."""
-    return EDGE_RATIO * infinite_plate_impedance(plate)
-
-
-def corner_impedance(plate: Plate) -> float:
-    """Driving-point impedance at a free corner, ``Z_inf / 7.5``, N s/m."""
-    return CORNER_RATIO * infinite_plate_impedance(plate)
-
-
 def critical_distance(plate: Plate, contact_time: float) -> float:
     """Distance (m) within which an edge is felt, ``c_g tau / 2`` at ``omega = pi / tau`` (s):
     ``sqrt(pi tau) (D / rho h)^(1/4)``."""
@@ -134,19 +124,6 @@ def mindlin_point_admittance(plate: Plate, frequency):
     return float(y) if np.ndim(y) == 0 else y
 
 
-def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
-    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate over ``[low, high]`` (Hz)."""
-    from scipy.integrate import quad
-
-    lo = checks.nonnegative("low", low, "Hz")
-    hi = checks.positive("high", high, "Hz")
-    if not hi > lo:
-        raise ParameterError(f"high={high!r} must be > low={low!r} (Hz)")
-    # Re Y is continuous down to 0 Hz (Kirchhoff's constant); start just above it
-    mean = quad(lambda f: mindlin_point_admittance(plate, f), max(lo, 1e-6 * hi), hi, limit=200)[0]
-    return (hi - lo) / mean
-
-
 def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
     """Flexural Mindlin angular frequency (rad/s) at ``k^2`` (rad^2/m^2): exact for a simply
     supported mode (Mindlin, Schacknow & Deresiewicz, J. Appl. Mech. 23 (1956) 430-436)."""
@@ -174,14 +151,6 @@ class WaveSpeeds:
 
     phase: float
     group: float
-
-
-def kirchhoff_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
-    """The thin plate's bending-wave speeds at ``frequency`` (Hz, > 0): ``c = sqrt(omega)
-    (D / (rho h))^(1/4)`` and ``c_g = 2 c`` (Cremer, Heckl & Petersson, section 3.7)."""
-    f = checks.positive("frequency", frequency, "Hz")
-    c = math.sqrt(2.0 * math.pi * f) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
-    return WaveSpeeds(c, 2.0 * c)
 
 
 def mindlin_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:

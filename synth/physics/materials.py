@@ -181,24 +181,6 @@ def resolve(value, field_name: str = "material") -> Material:
     raise ParameterError(f"{field_name}={value!r} must be a Material or a material name")
 
 
-def damping_text(d) -> str:
-    if isinstance(d, LossFactor):
-        return f"loss factor {d.eta:.3g}"
-    return f"Rayleigh alpha {d.alpha:g} 1/s, beta {d.beta:g} s"
-
-
-def table_markdown() -> str:
-    """The built-in table in Markdown: density (kg/m^3), E (GPa), nu, damping, source."""
-    lines = ["| name | density (kg/m^3) | E (GPa) | nu | damping | source |", "|" + "---|" * 6]
-    for m in (TABLE[key] for key in names()):
-        source = m.source.replace("|", "\\|")
-        lines.append(
-            f"| {m.name} | {m.density:g} | {m.young / 1e9:.4g} | {m.poisson:g} | "
-            f"{damping_text(m.damping)} | {source} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
 @dataclass(frozen=True)
 class ContactSurface:
     """A plate material's measured side of the contact: ``transverse_ratio`` ``E_t / E`` in (0,
