@@ -149,6 +149,13 @@ def audio_array(name: str, audio: object) -> np.ndarray:
     return a
 
 
+def integer_at_least(name: str, value: object, least: int, what: str = "") -> int:
+    """An integer ``>= least``; ``what`` it counts goes into the message."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < least:
+        raise ParameterError(f"{name}={value!r} must be an integer >= {least}{_unit(what)}")
+    return int(value)
+
+
 def samplerate(value: object, name: str = "samplerate") -> int:
     """An integer sample rate ``> 0``, Hz."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:

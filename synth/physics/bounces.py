@@ -107,9 +107,7 @@ class BounceOptions:
         object.__setattr__(
             self, "max_duration", checks.positive("max_duration", self.max_duration, "s")
         )
-        n = self.max_impacts
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise ParameterError(f"max_impacts={n!r} must be an integer >= 1")
+        checks.integer_at_least("max_impacts", self.max_impacts, 1)
         if self.rebound is not None and not callable(self.rebound):
             raise ParameterError(
                 f"rebound={self.rebound!r} must be a callable (ImpactResult, speed) -> "

@@ -359,16 +359,8 @@ def check_law_fields(law) -> dict:
 
 def check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
-    if (
-        isinstance(n_points, bool)
-        or not isinstance(n_points, (int, np.integer))
-        or n_points < MIN_POINTS
-    ):
-        raise ParameterError(
-            f"n_points={n_points!r} must be an integer >= {MIN_POINTS} "
-            f"(samples of the force pulse over the contact)"
-        )
-    return int(n_points)
+    what = "samples of the force pulse over the contact"
+    return checks.integer_at_least("n_points", n_points, MIN_POINTS, what)
 
 
 def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
@@ -554,11 +546,6 @@ class ContactSolver:
         )
         times, speeds = tuple(results[:, _k.R_T1].tolist()), tuple(results[:, _k.R_V1].tolist())
         return DropImpacts(times, speeds, solved, ending, t, v)
-
-    @property
-    def infinite_admittance(self) -> float | None:
-        """``1 / Z_inf`` of the plate, m/(N s) (None without a plate)."""
-        return self._beta_inf
 
     def solve(
         self,

@@ -18,6 +18,7 @@ from synth.physics.scene import (
     Ball,
     HollowBall,
     Plate,
+    check_law_options,
 )
 
 
@@ -229,14 +230,6 @@ def _measured_law(ball: Ball, plate: Plate, surface: str) -> ContactLaw:
     return ContactLaw(K, 1.5, mu, A, yield_penetration=yield_penetration(ball, plate, K))
 
 
-#: The parameters each named law requires, and what they are (the others require none).
-_NEEDS = {
-    "hunt-crossley": (("dissipation",), "mu, s/m, > 0"),
-    "viscoelastic": (("viscous_time",), "A, s, > 0"),
-    "power-law": (("exponent", "stiffness"), "n and K_n, N/m^n"),
-}
-
-
 def contact_parameters(
     ball: Ball, plate: Plate, contact: str | None = "hertz", *, surface: str = "ideal", **options
 ) -> ContactLaw:
@@ -261,14 +254,7 @@ def contact_parameters(
     if surface in ("fitted", "material"):
         _check_surface_alone(surface, contact, given)
         return _measured_law(ball, plate, surface)
-    needs, what = _NEEDS.get(contact, ((), ""))
-    allowed = needs + (("layer_depth",) if contact == "elastic-foundation" else ())
-    for key, value in given.items():
-        if value is not None and key not in allowed:
-            raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
-    missing = [key for key in needs if given[key] is None]
-    if missing:
-        raise ParameterError(f"contact={contact!r} needs {' and '.join(missing)} ({what})")
+    check_law_options(contact, given)
     if contact == "elastic-foundation":
         return ContactLaw(foundation_stiffness(ball, plate, given["layer_depth"]), 2.0)
     if contact == "power-law":

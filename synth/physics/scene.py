@@ -282,12 +282,27 @@ DEFAULT_PLATE_THEORY = "kirchhoff"
 #: The laws' parameters > 0 and their units (``exponent`` is in (1, 4]).
 _POSITIVE_OPTIONS = {"dissipation": "s/m", "viscous_time": "s", "stiffness": "N/m^n",
                      "layer_depth": "metres"}  # fmt: skip
-#: The parameters each law needs (the others need none).
-_LAW_NEEDS = {
-    "hunt-crossley": ("dissipation",),
-    "viscoelastic": ("viscous_time",),
-    "power-law": ("exponent", "stiffness"),
+#: The parameters each law needs, and what they are (the others need none).
+LAW_NEEDS = {
+    "hunt-crossley": (("dissipation",), "mu, s/m, > 0"),
+    "viscoelastic": (("viscous_time",), "A, s, > 0"),
+    "power-law": (("exponent", "stiffness"), "n and K_n, N/m^n"),
 }
+
+
+def check_law_options(law: str, given: dict, prefix: str = "") -> None:
+    """``ParameterError`` for a parameter of ``given`` (None: not given) that the contact
+    ``law`` does not take, or one it needs and lacks; ``prefix``: the section in the names."""
+    needs, what = LAW_NEEDS.get(law, ((), ""))
+    allowed = needs + (("layer_depth",) if law == "elastic-foundation" else ())
+    law_name = f"{prefix}law" if prefix else "contact"
+    for key, value in given.items():
+        if value is not None and key not in allowed:
+            raise ParameterError(f"{prefix}{key}={value!r} does not apply to {law_name}={law!r}")
+    missing = [prefix + key for key in needs if given.get(key) is None]
+    if missing:
+        raise ParameterError(f"{law_name}={law!r} needs {' and '.join(missing)} ({what})")
+
 
 #: Named contact models, (law, plate, surface): "measured" the closest to measurement,
 #: "thesis" the thesis' model (lossless Hertz, impedance plate), "fitted" the fitted surface
@@ -350,16 +365,7 @@ class Contact:
             n = checks.in_range("contact.exponent", self.exponent, 1.0, 4.0, "dimensionless",
                                 hi_open=False)  # fmt: skip
             _set(self, exponent=n)
-        needs = _LAW_NEEDS.get(self.law, ())
-        allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
-        for name in LAW_OPTIONS:
-            value = getattr(self, name)
-            if value is None and name in needs:
-                raise ParameterError(f"contact.law={self.law!r} needs contact.{name}")
-            if value is not None and name not in allowed:
-                raise ParameterError(
-                    f"contact.{name}={value!r} does not apply to contact.law={self.law!r}"
-                )
+        check_law_options(self.law, {k: getattr(self, k) for k in LAW_OPTIONS}, "contact.")
 
     def _resolve_model(self):
         """``law``, ``plate`` and ``surface`` not given: the ``model``'s."""
@@ -410,8 +416,7 @@ class Rolling:
             self.spectrum()
         except ParameterError as exc:
             raise ParameterError(f"rolling.{exc}") from None
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ParameterError(f"rolling.seed={self.seed!r} must be an integer >= 0")
+        checks.integer_at_least("rolling.seed", self.seed, 0)
 
     def spectrum(self):
         """The :class:`synth.physics.surface.RoughnessSpectrum`, or None for a smooth plate."""

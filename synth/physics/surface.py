@@ -162,9 +162,7 @@ def rough_profile(
     if not isinstance(spectrum, RoughnessSpectrum):
         raise ParameterError(f"spectrum={spectrum!r} must be a RoughnessSpectrum")
     L, dx, n = _check_grid(length, spacing)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError(f"seed={seed!r} must be an integer >= 0")
-    s = int(seed)
+    s = checks.integer_at_least("seed", seed, 0)
     m_total = _synthesis_size(L, dx, spectrum.correlation_length)
     k = 2.0 * math.pi * np.arange(m_total // 2 + 1) / (m_total * dx)
     variance = spectrum.density(k) / (m_total * dx)

@@ -146,10 +146,7 @@ class ModalContact:
         check_type("point", self.point, ModalPoint)
         checked = check_law_fields(self)
         steps = self.steps_per_contact
-        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
-            raise ParameterError(
-                f"steps_per_contact={steps!r} must be an integer >= 16 (steps per contact time)"
-            )
+        checks.integer_at_least("steps_per_contact", steps, 16, "steps per contact time")
         for key, value in checked.items():
             object.__setattr__(self, key, value)
 
