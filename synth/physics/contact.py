@@ -23,7 +23,7 @@ from synth.physics import impedance
 from synth.physics.contact_kernels import equations as _eq
 from synth.physics.contact_kernels import shell as _shell
 from synth.physics.contact_law import ShellLaw, contact_parameters
-from synth.physics.scene import Ball, Plate
+from synth.physics.scene import Ball, Plate, check_type
 
 #: Local tolerance of the integrators relative to the requested ``rtol``.
 TOLERANCE_SAFETY = 0.2
@@ -498,10 +498,8 @@ class ContactSolver:
         **contact_options,
     ) -> ContactSolver:
         """The solver of ``ball`` on ``plate`` under ``law`` (None: the ball's own); g in m/s^2."""
-        if not isinstance(ball, Ball):
-            raise ParameterError(f"ball={ball!r} must be a Ball")
-        if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate")
+        check_type("ball", ball, Ball)
+        check_type("plate", plate, Plate)
         c = contact_parameters(ball, plate, law, **contact_options)
         return cls(
             ball.mass, c.stiffness, c.exponent, c.dissipation, gravity, rtol, n_points, plate,

@@ -27,15 +27,9 @@ YOUNG_RANGE = (100.0, 1.21e12)
 #: Xu & Gao, Advanced Materials 25, 2554 (2013)), to osmium, 22 590 (CRC Handbook of
 #: Chemistry and Physics, "Density of the elements").
 DENSITY_RANGE = (0.16, 22_590.0)
-
-
-def _closed(name: str, value, bounds: tuple[float, float], unit: str, what: str) -> float:
-    """``value`` in the closed ``bounds``, else a ParameterError saying ``what`` bounds it."""
-    lo, hi = bounds
-    x = checks.real(name, value, unit, f"in [{lo:g}, {hi:g}]")
-    if not lo <= x <= hi:
-        raise ParameterError(f"{name}={value!r} must be in [{lo:g}, {hi:g}] {unit} ({what})")
-    return x
+#: The closed ranges of a material's constants, their units and what bounds them.
+_RANGES = {"density": (DENSITY_RANGE, "kg/m^3: graphene aerogel to osmium"),
+           "young": (YOUNG_RANGE, "Pa: the softest elastomers to diamond")}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -95,14 +89,13 @@ class Material:
             raise ParameterError(f"material.name={self.name!r} must be a non-empty string")
         n = self.name
         checked = {
-            "density": _closed(
-                f"{n}.density", self.density, DENSITY_RANGE, "kg/m^3", "graphene aerogel to osmium"
-            ),
-            "young": _closed(
-                f"{n}.young", self.young, YOUNG_RANGE, "Pa", "the softest elastomers to diamond"
-            ),
-            "poisson": checks.in_range(f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"),
-        }
+            key: checks.in_range(f"{n}.{key}", getattr(self, key), *bounds, why, hi_open=False,
+                                 lo_open=False)
+            for key, (bounds, why) in _RANGES.items()
+        }  # fmt: skip
+        checked["poisson"] = checks.in_range(
+            f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"
+        )
         for field in ("transverse_shear", "yield_stress"):
             if getattr(self, field) is not None:
                 checked[field] = checks.positive(f"{n}.{field}", getattr(self, field), "Pa")

@@ -75,11 +75,9 @@ class EdgeEffectSolution:
         om = sx + sy
         ok = np.isfinite(om) & (om > 0.0) & (om <= omega_trials)
         order = np.lexsort((ny[ok], nx[ok], om[ok]))
-        trial_omega = np.ascontiguousarray(om[ok][order])
-        self.nx = np.ascontiguousarray(nx[ok][order])
-        self.ny = np.ascontiguousarray(ny[ok][order])
-        self.sx = np.ascontiguousarray(sx[ok][order])
-        self.sy = np.ascontiguousarray(sy[ok][order])
+        trial_omega, self.nx, self.ny, self.sx, self.sy = (
+            np.ascontiguousarray(a[ok][order]) for a in (om, nx, ny, sx, sy)
+        )
         self.constants = (
             factor_edge_constants(self.sx, self.sy, self.nx, hx, free, float(nu)),
             factor_edge_constants(self.sy, self.sx, self.ny, hy, free, float(nu)),
@@ -93,11 +91,10 @@ class EdgeEffectSolution:
         by_omega = np.argsort(omega, kind="stable")
         n = int(np.searchsorted(omega[by_omega], omega_max, side="right"))
         modes = by_omega[:n]
-        self.omega = np.ascontiguousarray(omega[modes])
         self.trial = np.ascontiguousarray(modes)
-        self.partner = np.ascontiguousarray(partner[modes])
-        self.own = np.ascontiguousarray(own[modes])
-        self.other = np.ascontiguousarray(other[modes])
+        self.omega, self.partner, self.own, self.other = (
+            np.ascontiguousarray(a[modes]) for a in (omega, partner, own, other)
+        )
         self.n_paired = int(np.sum(self.partner >= 0))
         arrays = (self.omega, self.nx, self.ny, self.sx, self.sy, self.trial, self.partner)
         arrays += (self.own, self.other)
