@@ -73,9 +73,15 @@ def admittance_at(
     sy = _taper(min(y, plate.width - y), dc)
     if sx == 0.0 and sy == 0.0:
         return beta_inf
+    return beta_inf * edge_blend(sx, sy)
+
+
+def edge_blend(sx: float, sy: float) -> float:
+    """``Z_inf / Z`` where the edges along x and y are felt by the shares ``sx``, ``sy`` in [0,
+    1]: bilinear between the middle's 1, an edge's and a corner's (Table 3.4)."""
     re = 1.0 / EDGE_RATIO
     rc = 1.0 / CORNER_RATIO
-    return beta_inf * (1.0 + (re - 1.0) * (sx + sy) + (rc - 2.0 * re + 1.0) * sx * sy)
+    return 1.0 + (re - 1.0) * (sx + sy) + (rc - 2.0 * re + 1.0) * sx * sy
 
 
 #: Mindlin's shear coefficient ``kappa`` (Reissner's 5/6; Mindlin's pi^2/12 differs by 1.3 %).

@@ -64,10 +64,7 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
     tau = result.separation_time
     omegas = (return_frequency(plate, dx, tau), return_frequency(plate, dy, tau))
     shares = energy_shares_above(result, omegas)
-    r_e = 1.0 / impedance.EDGE_RATIO
-    r_c = 1.0 / impedance.CORNER_RATIO
-    sx, sy = shares
-    contrast = (r_e - 1.0) * (sx + sy) + (r_c - 2.0 * r_e + 1.0) * sx * sy
+    contrast = impedance.edge_blend(*shares) - 1.0
     taken = result.plate_energy / (0.5 * ball_mass * speed * speed)
     e = result.restitution
     bound = taken * contrast / (2.0 * e) if e > 0.0 and not result.settled else taken * contrast
