@@ -17,16 +17,6 @@ from pathlib import Path
 
 from synth.errors import SynthError
 
-__all__ = [
-    "Outputs",
-    "remove_stale_temporaries",
-    "temporary_name",
-    "temporary_sibling",
-    "write_atomically",
-    "write_json_atomically",
-    "write_once",
-]
-
 #: Prefix of the engine's temporaries, ``.synth-<pid>-<hex>.part<suffix>``: the name does
 #: not grow with the target's, and the writer's pid lets a dead writer's be removed.
 TEMPORARY_PREFIX = ".synth-"
@@ -43,25 +33,21 @@ def _process_alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except (PermissionError, OverflowError, ValueError):
-        return True
+        pass
     return True
 
 
-def remove_stale_temporaries(folder) -> list[Path]:
-    """Remove the temporaries in ``folder`` whose writer process no longer runs; the paths
-    removed."""
-    removed = []
+def remove_stale_temporaries(folder) -> None:
+    """Remove the temporaries in ``folder`` whose writer process no longer runs."""
     try:
         entries = list(Path(folder).glob(f"{TEMPORARY_PREFIX}*.part*"))
     except OSError:
-        return removed
+        return
     for tmp in entries:
         pid_text = tmp.name[len(TEMPORARY_PREFIX) :].split("-", 1)[0]
         if pid_text.isdigit() and not _process_alive(int(pid_text)):
             with contextlib.suppress(OSError):  # removed meanwhile, or not removable
                 tmp.unlink()
-                removed.append(tmp)
-    return removed
 
 
 @contextmanager

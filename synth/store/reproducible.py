@@ -16,25 +16,21 @@ import numpy as np
 __all__ = ["decoded_sha256", "ogg_serial_for", "reproducible", "set_ogg_serial"]
 
 
-def _crc_table() -> np.ndarray:
-    table = np.zeros(256, dtype=np.uint32)
-    for i in range(256):
-        r = i << 24
-        for _ in range(8):
-            r = ((r << 1) ^ 0x04C11DB7) if r & 0x80000000 else (r << 1)
-        table[i] = r & 0xFFFFFFFF
-    return table
+def _crc_entry(i: int) -> int:
+    r = i << 24
+    for _ in range(8):
+        r = ((r << 1) ^ 0x04C11DB7) if r & 0x80000000 else (r << 1)
+    return r & 0xFFFFFFFF
 
 
-_CRC_TABLE = [int(v) for v in _crc_table()]
+_CRC_TABLE = [_crc_entry(i) for i in range(256)]
 
 
 def ogg_crc(page: bytes) -> int:
     """The Ogg CRC-32 of ``page`` (its CRC field must be zero)."""
     crc = 0
-    table = _CRC_TABLE
     for b in page:
-        crc = ((crc << 8) & 0xFFFFFFFF) ^ table[((crc >> 24) ^ b) & 0xFF]
+        crc = ((crc << 8) & 0xFFFFFFFF) ^ _CRC_TABLE[((crc >> 24) ^ b) & 0xFF]
     return crc
 
 
@@ -86,9 +82,7 @@ def reproducible(data: bytes, fmt: str, identity: str) -> bytes:
     and ``identity`` (the Ogg serial is :func:`ogg_serial_for` of it)."""
     if fmt == "ogg":
         return set_ogg_serial(data, ogg_serial_for(identity))
-    if fmt == "wav":
-        return _zero_wav_peak_timestamp(data)
-    return data
+    return _zero_wav_peak_timestamp(data) if fmt == "wav" else data
 
 
 def decoded_sha256(data: bytes) -> str:
