@@ -141,7 +141,7 @@ def write_json_atomically(
     return write_atomically(path, write, error=error)
 
 
-class Outputs:
+class Outputs(contextlib.AbstractContextManager):
     """The output files of one command, written all or none: each path checked before any
     work (:func:`synth.store.audio.check_output_path`; two outputs on one file refused);
     inside ``with outputs:`` each file is written to a temporary beside its target
@@ -168,9 +168,6 @@ class Outputs:
         self.temporaries[field] = target.with_name(temporary_name(target.suffix))
         return self.temporaries[field]
 
-    def __enter__(self):
-        return self
-
     def __exit__(self, kind, exc, tb):
         try:
             if kind is None:
@@ -181,7 +178,6 @@ class Outputs:
         finally:
             for tmp in self.temporaries.values():
                 tmp.unlink(missing_ok=True)
-        return False
 
     def _name_the_targets(self, exc: BaseException) -> None:
         """Put the user's paths where ``exc`` names a temporary (any engine temporary in a

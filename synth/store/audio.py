@@ -18,6 +18,7 @@ import soundfile
 from synth import checks
 from synth.errors import ParameterError, SynthError
 from synth.store.atomic import temporary_sibling, write_atomically
+from synth.store.reproducible import riff_chunks
 
 try:
     import resource  # the file size limit (ulimit -f), not on Windows
@@ -177,31 +178,17 @@ def wav_shortfall(path: str | os.PathLike) -> str | None:
     (soundfile reads the frames there without a word). Not RIFF/WAVE, or a size left open
     (0 or 0xFFFFFFFF, as streaming writers do): None.
     """
+    align = held = None
     try:
         with open(path, "rb") as f:
-            head = f.read(12)
-            if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
-                return None
-            size = os.fstat(f.fileno()).st_size
-            align = None
-            while True:
-                chunk = f.read(8)
-                if len(chunk) < 8:
-                    return None
-                cid, n = chunk[:4], struct.unpack("<I", chunk[4:])[0]
-                if cid == b"fmt ":
-                    fmt = f.read(min(n, 16))
-                    if len(fmt) >= 14:
-                        align = struct.unpack("<H", fmt[12:14])[0]
-                    f.seek(n - len(fmt) + (n & 1), os.SEEK_CUR)
+            for cid, n, at in riff_chunks(f):
+                if cid == b"fmt " and len(fmt := f.read(min(n, 16))) >= 14:
+                    align = struct.unpack("<H", fmt[12:14])[0]
                 elif cid == b"data":
-                    break
-                else:
-                    f.seek(n + (n & 1), os.SEEK_CUR)
-            held = size - f.tell()
+                    held = os.fstat(f.fileno()).st_size - at
     except OSError:
         return None
-    if n in (0, 0xFFFFFFFF) or held >= n or not align:
+    if held is None or n in (0, 0xFFFFFFFF) or held >= n or not align:
         return None
     return (
         f"{os.fspath(path)!r} is truncated: its header declares {n // align} frames "
