@@ -1,6 +1,5 @@
 """The rows' labels and file names: the spec's ``labels`` and its ``name`` template filled
-with each row's values, checked to be distinct and portable.
-"""
+with each row's values, checked to be distinct and portable."""
 
 from __future__ import annotations
 
