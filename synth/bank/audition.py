@@ -1,9 +1,6 @@
-"""Auditioning a finished bank from its files: :func:`preview`, every sound in index order in
-one audio file (WAV or FLAC) separated by ``gap`` s of silence, at the sounds' own level;
-:func:`sheet`, a PNG with a waveform over a spectrogram thumbnail per sound, titled with
-its index, file name and varied values (the optional ``plot`` extra). Both read only the
-rows recorded ``ok`` whose file has the recorded SHA-256, and write atomically.
-"""
+"""Auditioning a finished bank from its files (rows ``ok`` with the recorded SHA-256):
+:func:`preview`, every sound in one audio file, and :func:`sheet`, a PNG contact sheet of
+waveforms over spectrograms (the optional ``plot`` extra); both written atomically."""
 
 from __future__ import annotations
 
@@ -18,7 +15,6 @@ from synth.bank.executors import BankRunError
 
 #: Silence between two sounds of a preview, s.
 PREVIEW_GAP = 0.25
-
 #: Thumbnails per row of a contact sheet, and the most sounds one sheet shows.
 SHEET_COLUMNS = 4
 SHEET_MAX_SOUNDS = 400

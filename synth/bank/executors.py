@@ -23,22 +23,21 @@ _WORKER_THREADS = dict.fromkeys(
     ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"), "1"
 )
 
+#: A pool worker's spec and folder; the bank folder's lock file this process holds (a forked
+#: worker closes its copy).
 _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
-
-#: The bank folder's lock file this process holds: a forked worker closes its copy.
 _HELD_LOCK = None
+
+#: Period of a worker's watch on its parent, s (the fallback of PR_SET_PDEATHSIG), and
+#: prctl(2)'s option: the signal this process gets when its parent dies (linux/prctl.h).
+PARENT_WATCH_PERIOD = 0.5
+PR_SET_PDEATHSIG = 1
 
 
 def hold_lock(lock) -> None:
     global _HELD_LOCK
     _HELD_LOCK = lock
-
-
-#: Period of a worker's watch on its parent, s (the fallback of PR_SET_PDEATHSIG).
-PARENT_WATCH_PERIOD = 0.5
-#: prctl(2)'s option: the signal this process gets when its parent dies (linux/prctl.h).
-PR_SET_PDEATHSIG = 1
 
 
 def _die_with_parent(parent: int) -> None:
@@ -83,6 +82,8 @@ def _pool_task(item: PlanItem) -> RowResult:
 
 
 class Serial:
+    """The rows rendered one by one in this process."""
+
     def __init__(self, spec, out_dir):
         self.spec, self.out_dir = spec, out_dir
         warm(spec)
@@ -116,21 +117,18 @@ class Pool:
         if method == "fork":
             warm(spec)
         ctx = multiprocessing.get_context(method)
-        saved = {k: os.environ.get(k) for k in _WORKER_THREADS}
-        os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
+        unset = [k for k in _WORKER_THREADS if k not in os.environ]
+        os.environ.update({k: _WORKER_THREADS[k] for k in unset})
         try:
+            init = (spec, out_dir, os.getpid())
             self.executor = ProcessPoolExecutor(
-                jobs,
-                mp_context=ctx,
-                initializer=_pool_init,
-                initargs=(spec, out_dir, os.getpid()),
+                jobs, mp_context=ctx, initializer=_pool_init, initargs=init
             )
             for ready in [self.executor.submit(os.getpid) for _ in range(jobs)]:  # all warm
                 self._result(ready)
         finally:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
+            for k in unset:
+                os.environ.pop(k, None)
 
     @staticmethod
     def _result(future):
@@ -195,9 +193,8 @@ class Dask:
     """The same task function on a Dask cluster, through ``client``."""
 
     def __init__(self, spec, out_dir, client):
-        self.client = client
-        self.spec, self.out_dir = spec, out_dir
-        self.client.run(warm, spec)
+        self.client, self.spec, self.out_dir = client, spec, out_dir
+        client.run(warm, spec)
 
     def results(self, items):
         """Each row's result as it finishes, released at once: a lost worker's finished

@@ -1,12 +1,7 @@
-"""One gain for a whole bank: a finished bank scaled into another folder (docs/banks.md, "One
-gain for the bank").
-
-:func:`apply_gain` takes one gain from the manifest, to the loudest true peak (dBTP) or the
-median integrated loudness (LUFS, ITU-R BS.1770; found by measuring the scaled sounds,
-:func:`loudness_gain`). Each file is decoded, scaled and encoded again in the bank's format
-into ``out_dir`` (:mod:`synth.store.reproducible`), published once and recorded, so the pass
-resumes as the bank does; the source bank is never touched.
-"""
+"""One gain for a whole bank (docs/banks.md, "One gain for the bank"): to the loudest true
+peak (dBTP) or the median integrated loudness (LUFS, ITU-R BS.1770), each file decoded,
+scaled, encoded again into another folder, published once and recorded, so the pass resumes
+as the bank does; the source bank is never touched."""
 
 from __future__ import annotations
 
@@ -27,14 +22,14 @@ from synth.bank.spec.model import spec_number
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
 TARGETS = {"true_peak": -1.0, "loudness": -23.0}
-
 #: File stored beside the scaled bank's manifest: the gain, its target and the source.
 GAIN_FILE = "gain.json"
-
 #: Gains tried by :func:`loudness_gain`, and how close the scaled median loudness must come
 #: to the level, LU (a thousandth of the smallest step anyone hears, about 1 LU).
 LOUDNESS_TRIALS = 8
 LOUDNESS_TOLERANCE = 1e-3
+#: A row's peak levels, which move by the gain exactly (dBFS, dBTP).
+PEAKS = ("peak_dbfs", "true_peak_dbtp")
 
 
 @dataclass(kw_only=True)
@@ -160,7 +155,7 @@ def _done_rows(out: Path, rows: list[dict], fmt: str) -> tuple[list[dict], int]:
     complete = [r for r in mf.read_rows(out) if r["index"] in source and mf.intact(out, r)]
     names = {i: r["file"] for i, r in source.items()}
     moved, renamed = mf.renamed(out, fmt, complete, names)
-    scaled = ("gain_db", "peak_dbfs", "true_peak_dbtp", "loudness_lufs", "sha256", "audio_sha256")
+    scaled = ("gain_db", *PEAKS, "loudness_lufs", "sha256", "audio_sha256")
     return [dict(source[r["index"]], **{k: r.get(k) for k in scaled}) for r in moved], renamed
 
 
@@ -198,11 +193,7 @@ def _scale_row(src: Path, out: Path, row: dict, spec: dict, gain_db: float) -> d
     loudness = {"loudness_lufs": integrated_loudness(audio, samplerate)}
     if not mf.write_once(target, data):
         data = target.read_bytes()
-    peaks = {
-        k: round(row[k] + gain_db, 6)
-        for k in ("peak_dbfs", "true_peak_dbtp")
-        if row.get(k) is not None
-    }
+    peaks = {k: round(row[k] + gain_db, 6) for k in PEAKS if row.get(k) is not None}
     return dict(row, gain_db=gain_db, **peaks, **loudness, **mf.file_hashes(data))
 
 
@@ -229,18 +220,15 @@ def apply_gain(
     out.mkdir(parents=True, exist_ok=True)
     mf.write_json(out / GAIN_FILE, record)
     mf.clean_temporaries(out)
-    cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]
-    book = mf.Manifest(out, cols)
+    book = mf.Manifest(out, mf.columns(list(spec.get("vary", {}))) + ["gain_db"])
     kept, renamed = _done_rows(out, rows, spec["format"])
-    done_rows = {r["index"] for r in kept}
+    done = {r["index"] for r in kept}
     result = GainResult(
         out, gain_db=gain_db, target=target, level=level, skipped=len(kept), renamed=renamed
     )
     book.rewrite(kept)
     try:
-        for row in rows:
-            if row["index"] in done_rows:
-                continue
+        for row in (r for r in rows if r["index"] not in done):
             new = _scale_row(src, out, row, spec, gain_db)
             book.append(new)
             kept.append(new)

@@ -1,10 +1,7 @@
 """The files of a bank's folder: ``manifest.jsonl`` and ``manifest.csv``, one row per sound
 (docs/banks.md, "Manifest"), the stored spec (``bank.json``), and what a run and a gain pass
-share: the outcome's counts, complete rows moved to new names, orphans.
-
-The parent alone appends rows, each line whole and fsynced after its file is in place, so
-a ``kill -9`` leaves every finished row with its file; at a run's start and end both files
-are rewritten atomically from the rows that hold (a cut line's sound is redone).
+share. The parent alone appends rows, each line whole and fsynced after its file is in place
+(a ``kill -9`` loses no finished row); a run's start and end rewrite both files atomically.
 """
 
 from __future__ import annotations
@@ -62,9 +59,18 @@ class Outcome:
         return self.done / self.elapsed if self.elapsed > 0 else 0.0
 
     def files_note(self) -> str:
-        """The summary's lines on files renamed and orphans, each after a newline."""
+        """The summary's lines on files renamed and orphans (removed with ``--prune``, or
+        left), each after a newline."""
         text = f"\n  {self.renamed} files renamed (same sounds, new names)" if self.renamed else ""
-        return text + (f"\n  {orphans_note(self.orphans, self.pruned)}" if self.orphans else "")
+        if not (names := self.orphans):
+            return text
+        shown = ", ".join(names[:5]) + (f" ... ({len(names) - 5} more)" if len(names) > 5 else "")
+        if self.pruned:
+            return text + f"\n  {len(names)} files not in the manifest removed (--prune): {shown}"
+        return text + (
+            f"\n  {len(names)} files in the folder are not in the manifest (left in place; "
+            f"--prune removes them): {shown}"
+        )
 
     def prune(self, names, prune: bool) -> None:
         """Find the :func:`orphans` of the folder beside ``names``, deleted if ``prune``."""
@@ -135,17 +141,6 @@ def intact(folder: Path, row: dict) -> bool:
     )
 
 
-def orphans_note(names: list[str], removed: bool) -> str:
-    """The summary line of :func:`orphans`, removed (``--prune``) or left."""
-    shown = ", ".join(names[:5]) + (f" ... ({len(names) - 5} more)" if len(names) > 5 else "")
-    if removed:
-        return f"{len(names)} files not in the manifest removed (--prune): {shown}"
-    return (
-        f"{len(names)} files in the folder are not in the manifest (left in place; "
-        f"--prune removes them): {shown}"
-    )
-
-
 def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
     """Move the files ``moves`` (index: (old name, new name) in ``out_dir``) through
     temporaries (a new name may be another's old one), each as the bytes a render gives
@@ -198,10 +193,7 @@ def _csv_line(row: dict, cols) -> str:
     """A CSV line; None empty, lists and tables as JSON text."""
     buf = io.StringIO()
     cells = [row.get(c) for c in cols]
-    cells = [
-        "" if v is None else json.dumps(v) if isinstance(v, list | tuple | dict) else v
-        for v in cells
-    ]
+    cells = [json.dumps(v) if isinstance(v, list | tuple | dict) else v for v in cells]
     csv.writer(buf, lineterminator="\n").writerow(cells)
     return buf.getvalue()
 

@@ -169,8 +169,7 @@ def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
     from scipy import fft
 
     x = np.asarray(audio, dtype=np.float64)
-    if x.ndim > 1:
-        x = x.sum(axis=1)
+    x = x.sum(axis=1) if x.ndim > 1 else x
     n = fft.next_fast_len(max(x.size, 1), real=True)
     power = np.abs(fft.rfft(x, n)) ** 2
     total = float(power.sum())

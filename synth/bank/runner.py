@@ -1,8 +1,7 @@
-"""Running a bank: the rows of a plan rendered by long-lived workers (:mod:`.executors`),
-each file written atomically, each finished row appended to the manifest by this process;
-a rerun resumes (docs/banks.md). A row that cannot be rendered is recorded ``failed`` and
-the others go on; a file that cannot be written stops the bank cleanly.
-"""
+"""Running a bank (docs/banks.md): the rows of a plan rendered by long-lived workers
+(:mod:`.executors`), each file written atomically and its row appended to the manifest here;
+a rerun resumes. A row that fails is recorded ``failed``; a file that cannot be written
+stops the bank cleanly."""
 
 from __future__ import annotations
 
@@ -26,10 +25,9 @@ from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
 from synth.bank.spec.model import spec_integer
 
-#: Rows a dry run times (spread over the plan): at least this many and the square root of
-#: the rows (rows differ in cost tenfold: the sampled mean's relative error falls as one
-#: over the root of the sample, the dry run stays about one over the root of the bank's
-#: time), and a whole number per worker, at least :data:`ESTIMATE_ROWS_PER_WORKER`.
+#: Rows a dry run times, spread over the plan: at least this many and the square root of the
+#: rows (the sampled mean's error falls as one over the root of the sample), a whole number
+#: per worker, at least :data:`ESTIMATE_ROWS_PER_WORKER`.
 ESTIMATE_RENDERS = 5
 ESTIMATE_ROWS_PER_WORKER = 2
 
@@ -239,12 +237,9 @@ def _verified(out_dir: Path, rows: list[dict], plan) -> list[dict]:
 def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
     """The rows whose record holds (every ``ok`` file hashed again); one that does not is
     dropped from the manifest, redone by the next run, and the bank is not complete."""
-    kept, bad = [], []
-    for row in rows:
-        if row.get("status") == "ok" and not mf.intact(out_dir, row):
-            bad.append(row["index"])
-        else:
-            kept.append(row)
+    good = [row.get("status") != "ok" or mf.intact(out_dir, row) for row in rows]
+    kept = [row for row, ok in zip(rows, good) if ok]
+    bad = [row["index"] for row, ok in zip(rows, good) if not ok]
     if bad:
         now = sum(1 for i in bad if i in recorded)  # rendered in this run, else skipped
         result.done -= now
@@ -286,13 +281,12 @@ def _estimate(job: _Job, before: float) -> Estimate:
 
 
 def _progress(total: int):
-    if not sys.stderr.isatty():
-        return None
+    """A progress bar on a terminal's stderr (optional ``tqdm``), or None."""
     try:
         from tqdm import tqdm
     except ImportError:
         return None
-    return tqdm(total=total, file=sys.stderr, unit="sound")
+    return tqdm(total=total, file=sys.stderr, unit="sound") if sys.stderr.isatty() else None
 
 
 def _jobs(jobs) -> int:

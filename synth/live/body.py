@@ -34,15 +34,15 @@ if TYPE_CHECKING:
 MAX_CONTACT = 0.02
 SLOT_CONTACT = 0.002
 MAX_SLOT_GRID = 4097
-#: Height (m) of the default microphone above the plate's centre (as a Scene's default).
+#: Height (m) of the default microphone above the plate's centre (as a Scene's default);
+#: impact points (and contact solvers) a body keeps prepared; radius (m) of the ball of the
+#: hit that warms a new body's hit path up (not played).
 DEFAULT_MICROPHONE_HEIGHT = 0.2
-#: Impact points (and balls' contact solvers) a body keeps prepared, the oldest dropped.
 KEPT_POINTS = 64
+WARM_UP_BALL_RADIUS = 0.005
 #: A PULSE slot's scalars in the order :meth:`Body._hand_over` writes them.
 PULSE_FIELDS = [kernel.STEP, kernel.OFFSET, kernel.WEIGHT, kernel.CONTACT_TIME, kernel.ORDER,
                 kernel.GAIN, kernel.MASS_LINE]  # fmt: skip
-#: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
-WARM_UP_BALL_RADIUS = 0.005
 
 
 @dataclass(frozen=True)
@@ -217,9 +217,7 @@ class Body:
             plate = _keep(self._plate_coefficients, position, (excitation, c))
         excitation, c = plate
         coef = (c.coef_re + 1j * c.coef_im) * model.output
-        heard = replace(
-            c, coef_re=np.ascontiguousarray(coef.real), coef_im=np.ascontiguousarray(coef.imag)
-        )
+        heard = replace(c, coef_re=coef.real.copy(), coef_im=coef.imag.copy())
         direct = model.direct(excitation)
         line = float(np.sum(direct.real)) if direct is not None else 0.0
         return _keep(self._prepared, position, _Prepared(heard, c, line))
@@ -280,6 +278,7 @@ class Body:
             self._prepare(self.plate.check_position(p, "position"))
 
     def _check_length(self, contact_time: float) -> None:
+        """Refuse a contact longer than ``MAX_CONTACT`` (s), which no slot can hold."""
         if mb.samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
             raise ParameterError(
                 f"the contact lasts {contact_time:.4g} s, longer than the {MAX_CONTACT} s "

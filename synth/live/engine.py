@@ -1,11 +1,6 @@
 """A live engine: an always open output stream that plays physical impacts as they happen
-(docs/live.md). Its callback is compiled code with no Python, allocation or lock
-(:mod:`synth.live.native`); :meth:`Engine.process` runs the same mixing without a device.
-Levels are the listener's physical signal at the calibration of ``normalize="physical"``.
-The engine's clock, events and statistics are read from the arrays the audio thread writes;
-a watchdog finds a lost device, and a stream is closed within a bounded time even when the
-audio server is gone.
-"""
+(docs/live.md), its callback compiled code with no Python, allocation or lock
+(:mod:`synth.live.native`); levels at the calibration of ``normalize="physical"``."""
 
 from __future__ import annotations
 
@@ -367,35 +362,40 @@ class Engine:
     def process(self, frames: int) -> np.ndarray:
         """The next ``frames`` frames mixed without a device, in blocks of ``blocksize``: float32
         (frames, channels), as the stream's callback would emit them."""
-        out = self._new_block(frames)
-        if self.running:
-            raise SynthError("process() mixes without a device: stop() the stream first")
-        self._check_open("process")
+        out = self._new_block(frames, "process()")
         for a in range(0, out.shape[0], self.blocksize):  # the callback's blocks
-            self.mix_into(out[a : a + self.blocksize])
+            self._mix(out[a : a + self.blocksize])
         return out
 
     def mix_into(self, out: np.ndarray) -> np.ndarray:
         """Mix the next frames into ``out`` (a writeable C-contiguous float32 (frames, channels)
         array, overwritten), for hosts that own the audio callback; returns ``out``."""
         _check_block(out, self.channels)
-        check_int("frames", out.shape[0], 0, int(MAX_SECONDS * self.samplerate), "frames")
+        self._check_offline("mix_into()", out.shape[0])
+        return self._mix(out)
+
+    def render_block(self, frames: int) -> np.ndarray:
+        """The next ``frames`` frames as one block (:meth:`mix_into` of a new array)."""
+        return self._mix(self._new_block(frames, "render_block()"))
+
+    def _check_offline(self, what: str, frames) -> int:
+        """``frames`` checked (at most ``MAX_SECONDS``) for mixing without the stream."""
+        limit = int(MAX_SECONDS * self.samplerate)
+        n = check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
         if self.running:
-            raise SynthError("mix_into() mixes without the engine's stream: stop() it first")
+            raise SynthError(f"{what} mixes without the engine's stream: stop() it first")
         self._check_open("mix")
+        return n
+
+    def _new_block(self, frames: int, what: str) -> np.ndarray:
+        n = self._check_offline(what, frames)
+        return np.empty((n, self.channels), dtype=np.float32)
+
+    def _mix(self, out: np.ndarray) -> np.ndarray:
         native.mix_engine(self._native.ctl, out)
         if self._retiring:
             self._reap()
         return out
-
-    def render_block(self, frames: int) -> np.ndarray:
-        """The next ``frames`` frames as one block (:meth:`mix_into` of a new array)."""
-        return self.mix_into(self._new_block(frames))
-
-    def _new_block(self, frames: int) -> np.ndarray:
-        limit = int(MAX_SECONDS * self.samplerate)
-        n = check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
-        return np.empty((n, self.channels), dtype=np.float32)
 
     def start(self) -> Engine:
         """Open the output stream, mixing from the engine's clock; SynthError without PortAudio,
@@ -489,16 +489,15 @@ class Engine:
         """Why the running stream's device is taken as lost, or None."""
         silent = self._silent_for()
         limit = max(DEVICE_LOST, 10 * self.blocksize / self.samplerate)
-        if silent > limit:
-            return (
-                f"the audio stream has not called back for {silent:.2f} s (more than {limit:g} "
-                f"s): its device or audio server is gone; stop() the engine (stats.silent_for)"
-            )
-        return None
+        if silent <= limit:
+            return None
+        return (
+            f"the audio stream has not called back for {silent:.2f} s (more than {limit:g} "
+            f"s): its device or audio server is gone; stop() the engine (stats.silent_for)"
+        )
 
     def _check_alive(self) -> None:
-        why = self._lost()
-        if why is not None:
+        if why := self._lost():
             raise SynthError(why)
 
     def _onset(self, at) -> float:

@@ -1,12 +1,8 @@
-"""The audio thread's work on a body, one compiled call a block (``nogil``: trigger threads
-run meanwhile). Voice slots hold the plate's modal states as the offline bank's
-(:mod:`synth.sound.modal_bank`), heard through each mode's complex listener gain (ramped after
-:meth:`synth.live.Body.move`; a mode no longer heard parks its state, :func:`park`), so a voice
-is the offline render of its impacts up to rounding, times its gain and fades. A voice takes a
-free slot or steals the lowest priority's, of those the oldest (:func:`_victim`), and ends when
-every mode is below its omission share or its stop fade ends. Producers write data, then a
-fence, then the state word (read in the other order): ARM64 may reorder either side without it.
-"""
+"""The audio thread's work on a body, one compiled ``nogil`` call a block. Voice slots hold
+the plate's modal states as the offline bank's (:mod:`synth.sound.modal_bank`), heard
+through each mode's complex listener gain (ramped after :meth:`synth.live.Body.move`; a mode
+no longer heard parks, :func:`park`), so a voice is the offline render of its impacts up to
+rounding. Producers write data, a fence, then the state word (ARM64 reorders without it)."""
 
 from __future__ import annotations
 

@@ -1,13 +1,9 @@
 """The master bus' true-peak limiter: a look-ahead gain that keeps sample and inter-sample
-peaks at or below a ceiling.
-
-The detector interpolates 4x as ITU-R BS.1770-4 Annex 2's true-peak meter (12 taps per
-phase, Kaiser-windowed sincs); each position's required gain is ``r(q) = min(1, ceiling /
-tp(q))`` over every channel. The gain is a look-ahead minimum of ``r`` over the reach ``R =
-TAPS / 2`` then a moving average over the attack ``A = D - 2 R`` frames, so it is at or
-below every ``r`` its output frame reads; it releases at most ``RELEASE_DB_PER_S``. The
-output is the input delayed by ``D`` frames times the gain (bit-identical while at 1).
-"""
+peaks (4x as ITU-R BS.1770-4 Annex 2's meter) at or below a ceiling. Each position needs
+``r(q) = min(1, ceiling / tp(q))``; the gain, a minimum of ``r`` over the reach ``R`` then a
+moving average over the attack ``A = D - 2 R`` frames, is at or below every ``r`` its output
+frame reads, and releases at most ``RELEASE_DB_PER_S``. The output is the input delayed by
+``D`` frames times the gain (bit-identical while at 1)."""
 
 from __future__ import annotations
 
@@ -17,11 +13,10 @@ import numpy as np
 
 from synth.compilation import compiled
 
-#: Interpolated points per sample of the true-peak estimate (BS.1770-4 Annex 2: 4x).
+#: Interpolated points per sample of the true-peak estimate and taps per phase of the
+#: interpolator (BS.1770-4 Annex 2: 4x, 12), and the frames it reads on each side (its reach).
 OVERSAMPLING = 4
-#: Taps per phase of the interpolator (BS.1770-4 Annex 2: 12).
 TAPS = 12
-#: Frames the interpolator reads on each side of a position (its reach).
 REACH = TAPS // 2
 #: The interpolator's Kaiser beta: 60 dB side lobes (Kaiser's beta = 0.1102 (a - 8.7)).
 KAISER_BETA = 0.1102 * (60.0 - 8.7)

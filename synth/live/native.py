@@ -1,9 +1,7 @@
-"""The audio thread without Python: :func:`stream_callback` is a numba ``cfunc`` of
-PortAudio's ``PaStreamCallback`` signature working on the engine's preallocated state
-(:mod:`synth.live.state`) through addresses (``ctl``'s as ``userData``, as python-rtmixer
-does): no GIL, allocation or lock. The rolling block is compiled apart, called through
-``ctl[ROLLER]``.
-"""
+"""The audio thread without Python: :func:`stream_callback`, a numba ``cfunc`` of PortAudio's
+``PaStreamCallback`` signature on the engine's preallocated state (:mod:`synth.live.state`)
+through addresses (``ctl``'s as ``userData``, as python-rtmixer does): no GIL, allocation or
+lock. The rolling block is compiled apart, called through ``ctl[ROLLER]``."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """A ball rolling on a live body, updated by the game every frame (docs/live.md, "Rolling"):
-the game's thread evaluates the mode shapes along the segment ahead (the audio thread may not
-allocate), the audio thread (:mod:`synth.live.rolling_block`) rolls the ball and drives the
-modes."""
+the game's thread evaluates the mode shapes along the segment ahead, the audio thread
+(:mod:`synth.live.rolling_block`) rolls the ball and drives the modes."""
 
 from __future__ import annotations
 
@@ -22,13 +21,11 @@ from synth.physics.scene import Ball
 from synth.physics.surface import ContactEnvelope
 from synth.sound.rolling import path_excitation, table_step
 
-#: Fastest rolling speed a voice takes, m/s.
+#: Fastest rolling speed a voice takes, m/s; how far ahead an update's mode-shape table
+#: reaches, s at its speed (beyond: held at its end, :attr:`RollingVoice.overruns`); its
+#: reach behind the position and beyond the horizon, m (the touching point's offset).
 MAX_ROLL_SPEED = 5.0
-#: How far ahead an update's mode-shape table reaches, s at its speed (beyond: held at its
-#: end, :attr:`RollingVoice.overruns`).
 HORIZON = 0.05
-#: The table's reach behind the game's position and beyond the horizon, m: room for the
-#: touching point's offset from the centre and the centre's path until the next block.
 MARGIN = 2e-3
 #: Default rolling slots a body holds (``Engine(max_rolls=...)``): none, since a slot costs
 #: memory and an engine with slots compiles the rolling integrator (``synth bench cold``).
@@ -62,11 +59,9 @@ def _counter(field: int, doc: str) -> property:
 
 
 class RollingVoice:
-    """A ball rolling on a body (:meth:`synth.live.Body.roll`): the game calls :meth:`update`
-    every frame, sets its ``gain`` and calls :meth:`stop`, from any thread. ``id`` is reported
-    by :meth:`synth.live.Engine.ended` once it ended at every ear: after its stop fade, or
-    faded out at its envelope's end (``ended_by == "surface"``) or when its contact needs
-    more than ``MAX_STEPS_PER_SAMPLE`` steps a sample (``"failed"``). Figures: its first ear's."""
+    """A ball rolling on a body (:meth:`synth.live.Body.roll`), updated, set a ``gain`` and
+    stopped from any thread; its ``id`` is reported by :meth:`synth.live.Engine.ended` once it
+    ended at every ear (:attr:`ended_by`). Figures: its first ear's."""
 
     def __init__(self, body, vid: int, slots: list[int], direction: tuple[float, float]):
         self.body, self.id, self._direction = body, vid, direction
@@ -103,13 +98,13 @@ class RollingVoice:
 
     @property
     def ended_by(self) -> str | None:
-        """``"stop"``, ``"surface"`` (the envelope's end), ``"failed"``, or None (rolling)."""
+        """``"stop"``, ``"surface"`` (the envelope's end), ``"failed"`` (more than
+        ``MAX_STEPS_PER_SAMPLE`` steps a sample), or None (rolling)."""
         return ENDED_BY.get(int(self._ints[rb.I_ENDED]))
 
     @property
     def gain(self) -> float:
-        """The voice's gain (linear, in [0, 1e4]), on top of the body's; set while it rolls,
-        it is ramped linearly over the next block."""
+        """The voice's gain (linear, in [0, 1e4]) on top of the body's, ramped over a block."""
         return float(self._floats[0][rb.F_GAIN])
 
     @gain.setter
@@ -123,8 +118,7 @@ class RollingVoice:
 
     def update(self, position, velocity) -> None:
         """The ball's centre is now above ``position`` ((x, y), m), moving at ``velocity``
-        ((vx, vy), m/s, at most :data:`MAX_ROLL_SPEED`; at rest it keeps its direction):
-        from the next block it rolls from there along that direction."""
+        ((vx, vy), m/s, at most :data:`MAX_ROLL_SPEED`; at rest it keeps its direction)."""
         x, y = self.body.plate.check_position(position, "position")
         speed, ux, uy = _velocity(velocity)
         with self._lock:

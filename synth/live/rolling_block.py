@@ -1,12 +1,8 @@
-"""The audio thread's share of a rolling voice: its contact integrated and its force driving
-the plate's modes, block by block, inside the compiled callback (docs/live.md, "Rolling").
-
-A voice holds the same slot at each ear; the first ear's (the *contact slot*, ``I_C_*``)
-holds its contact, rolled once a block for every ear by the offline integrator
-(:func:`synth.physics.rolling_kernels.roll`, at most :data:`MAX_STEPS_PER_SAMPLE` steps a
-sample: a bound on the callback's work). The game's updates reach the callback through a
-lock-free triple buffer (an atomic :func:`exchange`), so the audio thread never waits.
-"""
+"""The audio thread's share of a rolling voice (docs/live.md, "Rolling"): its contact
+integrated and its force driving the plate's modes, block by block. A voice holds the same
+slot at each ear; the first ear's (the *contact slot*, ``I_C_*``) holds its contact, rolled
+once a block for every ear by :func:`synth.physics.rolling_kernels.roll`. The game's updates
+reach the callback through a lock-free triple buffer (an atomic :func:`exchange`)."""
 
 from __future__ import annotations
 

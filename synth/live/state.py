@@ -75,13 +75,9 @@ BODY_FIELDS = tuple(name[2:].lower() for name in sorted(
 #: period (s), gain and pan (target and now; pan NaN unpanned).
 S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW, N_SCALARS = range(9)
 
-#: The clock the callback reads (and the trigger threads, in Python).
+#: The clock the callback reads (and the trigger threads, in Python); -1 where the platform
+#: has no POSIX monotonic clock (the compiled callback is then not available).
 CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
-
-
-def native_available() -> bool:
-    """Whether this platform has the POSIX clock the compiled callback reads."""
-    return CLOCK >= 0
 
 
 def monotonic() -> float:
@@ -306,9 +302,9 @@ class EngineOptions:
             self._set(name, check_int(name, getattr(self, name), lo, hi, unit))
         for name, lo, hi, unit in _RANGES:
             self._set(name, closed(name, getattr(self, name), lo, hi, unit))
-        for name in ("clip", "limiter"):
-            if not isinstance(getattr(self, name), bool):
-                raise ParameterError(f"{name}={getattr(self, name)!r} must be True or False")
+        for name, value in (("clip", self.clip), ("limiter", self.limiter)):
+            if not isinstance(value, bool):
+                raise ParameterError(f"{name}={value!r} must be True or False")
         d = self.device
         if d is not None and (isinstance(d, bool) or not isinstance(d, (int, str))):
             raise ParameterError(f"device={d!r} must be None, a device index or a device name")
@@ -331,7 +327,7 @@ class EngineOptions:
         self._set("callback", checks.choice("callback", self.callback, STREAM_CALLBACKS))
         if self.on_device_lost is not None and not callable(self.on_device_lost):
             raise ParameterError(f"on_device_lost={self.on_device_lost!r} must be None or callable")
-        if self.callback == "native" and not native_available():
+        if self.callback == "native" and CLOCK < 0:
             raise ParameterError(
                 "callback='native' needs a POSIX monotonic clock, which this platform lacks: "
                 "use callback='python'"
@@ -340,9 +336,8 @@ class EngineOptions:
             total = check_int("max_total_voices", self.max_total_voices, 1, 65536, "voices")
             self._set("max_total_voices", total)
 
-    def _set(self, name: str, value):
+    def _set(self, name: str, value) -> None:
         object.__setattr__(self, name, value)
-        return value
 
     def _check_lookahead(self) -> None:
         if self.lookahead is not None:
@@ -451,8 +446,8 @@ class EngineState:
         then counted. Returns its index in :attr:`records`."""
         arrays = self.body_arrays(coefficients, gains, ring, settings, rolls)
         n = int(self.ctl[N_BODIES])
-        free = [i for i, r in enumerate(self.records) if r is None]
-        if not free and n >= self.directory.shape[0]:
+        index = next((i for i, r in enumerate(self.records) if r is None), n)
+        if index >= self.directory.shape[0]:
             raise IndexError(n)
         record = np.zeros(N_BODY, dtype=np.int64)
         for i, name in enumerate(BODY_FIELDS):
@@ -463,14 +458,13 @@ class EngineState:
                 record[i] = touch(value).ctypes.data  # no page fault on the audio thread
             else:
                 record[i] = int(value)
-        if free:  # a removed body's entry: the callback mixes the body from the write on
-            self.records[free[0]] = (record, arrays)
-            self.directory[free[0]] = record.ctypes.data
-            return free[0]
-        self.records.append((record, arrays))
-        self.directory[n] = record.ctypes.data
-        self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
-        return n
+        if index == n:
+            self.records.append(None)
+        self.records[index] = (record, arrays)
+        self.directory[index] = record.ctypes.data  # a removed body's entry: mixed from now on
+        if index == n:
+            self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
+        return index
 
     def body_arrays(self, coefficients, gains, ring, settings: BodySettings, rolls=None) -> dict:
         """A body's arrays and sizes by :data:`BODY_FIELDS` name: its bank ``coefficients``,

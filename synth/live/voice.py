@@ -1,11 +1,7 @@
-"""A hit or a drop on a live body: its arguments checked before anything is computed
-(:class:`Trigger`), its handle (:class:`Voice`), and its hand-off to the audio thread
-(docs/live.md): a body's bounded ring of preallocated slots, each an impact READY (mode
-amplitudes computed by the producer) or a PULSE (transformed by the audio thread; at most
-``max_new`` wait). A producer reserves a FREE slot under the producers' lock (never the audio
-thread's), fills it and writes its state word last, after a fence; a full ring refuses and
-counts.
-"""
+"""A hit or a drop on a live body: its checked arguments (:class:`Trigger`), its handle
+(:class:`Voice`), and its hand-off to the audio thread (docs/live.md), a bounded ring of
+preallocated slots, each READY (amplitudes computed here) or a PULSE (transformed by the
+audio thread). Producers reserve under their own lock and publish the state word last."""
 
 from __future__ import annotations
 
@@ -226,11 +222,6 @@ class VoiceLimit:
             elif vid in self._live:
                 self._live[vid] = voice
 
-    def playing(self) -> int:
-        """Voices counted against the cap now (0 without a cap)."""
-        with self._lock:
-            return sum(1 for v in self._live.values() if v is None or v.playing)
-
 
 #: Slot state while a producer fills it: not the least, so a FREE slot is ``state``'s minimum.
 WRITING = 2
@@ -356,10 +347,10 @@ class PendingRing:
         self.length[slot], self.first[slot], self.inject[slot] = length, first, inject
         if points is None:
             self.reference[slot] = reference
+            publish(self.state, slot, kernel.READY)  # last: the audio thread reads it
         else:
             self.points[slot] = points
-        form = kernel.READY if points is None else kernel.PULSE
-        publish(self.state, slot, form)  # last: the audio thread reads it
+            publish(self.state, slot, kernel.PULSE)
 
     def release(self, slot: int, pulse: bool = False) -> None:
         """Give a reserved slot back unfilled (its impact failed before publishing)."""

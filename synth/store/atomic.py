@@ -17,16 +17,6 @@ from pathlib import Path
 
 from synth.errors import SynthError
 
-__all__ = [
-    "Outputs",
-    "remove_stale_temporaries",
-    "temporary_name",
-    "temporary_sibling",
-    "write_atomically",
-    "write_json_atomically",
-    "write_once",
-]
-
 #: Prefix of the engine's temporaries, ``.synth-<pid>-<hex>.part<suffix>``: the name does
 #: not grow with the target's, and the writer's pid lets a dead writer's be removed.
 TEMPORARY_PREFIX = ".synth-"
@@ -43,25 +33,21 @@ def _process_alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except (PermissionError, OverflowError, ValueError):
-        return True
+        pass
     return True
 
 
-def remove_stale_temporaries(folder) -> list[Path]:
-    """Remove the temporaries in ``folder`` whose writer process no longer runs; the paths
-    removed."""
-    removed = []
+def remove_stale_temporaries(folder) -> None:
+    """Remove the temporaries in ``folder`` whose writer process no longer runs."""
     try:
         entries = list(Path(folder).glob(f"{TEMPORARY_PREFIX}*.part*"))
     except OSError:
-        return removed
+        return
     for tmp in entries:
         pid_text = tmp.name[len(TEMPORARY_PREFIX) :].split("-", 1)[0]
         if pid_text.isdigit() and not _process_alive(int(pid_text)):
             with contextlib.suppress(OSError):  # removed meanwhile, or not removable
                 tmp.unlink()
-                removed.append(tmp)
-    return removed
 
 
 @contextmanager
@@ -155,7 +141,7 @@ def write_json_atomically(
     return write_atomically(path, write, error=error)
 
 
-class Outputs:
+class Outputs(contextlib.AbstractContextManager):
     """The output files of one command, written all or none: each path checked before any
     work (:func:`synth.store.audio.check_output_path`; two outputs on one file refused);
     inside ``with outputs:`` each file is written to a temporary beside its target
@@ -182,9 +168,6 @@ class Outputs:
         self.temporaries[field] = target.with_name(temporary_name(target.suffix))
         return self.temporaries[field]
 
-    def __enter__(self):
-        return self
-
     def __exit__(self, kind, exc, tb):
         try:
             if kind is None:
@@ -195,7 +178,6 @@ class Outputs:
         finally:
             for tmp in self.temporaries.values():
                 tmp.unlink(missing_ok=True)
-        return False
 
     def _name_the_targets(self, exc: BaseException) -> None:
         """Put the user's paths where ``exc`` names a temporary (any engine temporary in a

@@ -18,54 +18,38 @@ import soundfile
 from synth import checks
 from synth.errors import ParameterError, SynthError
 from synth.store.atomic import temporary_sibling, write_atomically
+from synth.store.reproducible import riff_chunks
 
 try:
     import resource  # the file size limit (ulimit -f), not on Windows
 except ImportError:
     resource = None
 
-#: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
-#: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
-#: (20 log10(1000 / 20e-6) = 154): an impact heard from a few tens of centimetres
-#: peaks at 100-200 Pa (the loudest preset, a 17 mm glass ball on 12 mm MDF at
-#: 0.2 m, at 182 Pa), so every preset keeps at least 14 dB of headroom while a tick
-#: 100 dB quieter still spans 6 bits of a 24-bit file. ``"m/s^2"``: 10 000 m/s^2
-#: (about 1000 g), the range of a shock-rated piezoelectric accelerometer (the
-#: thesis presets peak at 1800-3300 m/s^2 on the plate).
+#: Digital full scale of the ``"physical"`` calibration, per unit of the listener's signal:
+#: 1000 Pa (154 dB SPL; an impact at a few tens of cm peaks at 100-200 Pa, so 14 dB of
+#: headroom, and a tick 100 dB quieter still spans 6 bits of PCM_24), and 10 000 m/s^2
+#: (about 1000 g, a shock-rated piezoelectric accelerometer's range).
 PHYSICAL_FULL_SCALE = {"Pa": 1000.0, "m/s^2": 10000.0}
 
-#: Level modes of :func:`normalize`.
+#: Level modes of :func:`normalize`; file formats by suffix; the default subtype (WAV and
+#: FLAC); subtypes that store floats (samples beyond full scale).
 NORMALIZE_MODES = ("peak", "loudness", "physical", "none")
-
-#: File formats written by :func:`write_audio`, by file suffix.
 FORMATS = {".wav": "WAV", ".flac": "FLAC"}
-
-#: Subtype written when none is given (WAV and FLAC alike).
 DEFAULT_SUBTYPE = "PCM_24"
-
-#: Subtypes that store floats and so can hold samples beyond full scale.
 FLOAT_SUBTYPES = ("FLOAT", "DOUBLE")
-
-#: Gating block of ITU-R BS.1770 integrated loudness, s.
+#: Gating block of ITU-R BS.1770 integrated loudness, s; most channels it weights (L, R, C,
+#: Ls, Rs).
 LOUDNESS_BLOCK = 0.4
-
-#: Most channels the BS.1770 channel weights are defined for (L, R, C, Ls, Rs).
 LOUDNESS_MAX_CHANNELS = 5
+#: Highest sample rate of a written file, Hz (no converter exceeds 768 kHz).
+MAX_FILE_SAMPLERATE = 768_000
+#: Quantisation step of the integer subtypes, in units of full scale.
+PCM_STEP = {f"PCM_{n}": 2.0 ** (1 - bits) for n, bits in (("S8", 8), ("U8", 8), ("16", 16),
+                                                          ("24", 24), ("32", 32))}  # fmt: skip
 
 
 class AudioFileError(ParameterError):
     """An audio file that cannot be read or written; the message names the path."""
-
-
-#: Highest sample rate of a written file, Hz (libsndfile stores the rate as a 32-bit int;
-#: the engine renders at most 384 kHz, and no converter exceeds 768 kHz).
-MAX_FILE_SAMPLERATE = 768_000
-
-#: Quantisation step of the integer subtypes, in units of full scale.
-PCM_STEP = {
-    name: 2.0 ** (1 - bits)
-    for name, bits in (("PCM_S8", 8), ("PCM_U8", 8), ("PCM_16", 16), ("PCM_24", 24), ("PCM_32", 32))
-}
 
 
 def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = False) -> str:
@@ -194,31 +178,17 @@ def wav_shortfall(path: str | os.PathLike) -> str | None:
     (soundfile reads the frames there without a word). Not RIFF/WAVE, or a size left open
     (0 or 0xFFFFFFFF, as streaming writers do): None.
     """
+    align = held = None
     try:
         with open(path, "rb") as f:
-            head = f.read(12)
-            if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
-                return None
-            size = os.fstat(f.fileno()).st_size
-            align = None
-            while True:
-                chunk = f.read(8)
-                if len(chunk) < 8:
-                    return None
-                cid, n = chunk[:4], struct.unpack("<I", chunk[4:])[0]
-                if cid == b"fmt ":
-                    fmt = f.read(min(n, 16))
-                    if len(fmt) >= 14:
-                        align = struct.unpack("<H", fmt[12:14])[0]
-                    f.seek(n - len(fmt) + (n & 1), os.SEEK_CUR)
+            for cid, n, at in riff_chunks(f):
+                if cid == b"fmt " and len(fmt := f.read(min(n, 16))) >= 14:
+                    align = struct.unpack("<H", fmt[12:14])[0]
                 elif cid == b"data":
-                    break
-                else:
-                    f.seek(n + (n & 1), os.SEEK_CUR)
-            held = size - f.tell()
+                    held = os.fstat(f.fileno()).st_size - at
     except OSError:
         return None
-    if n in (0, 0xFFFFFFFF) or held >= n or not align:
+    if held is None or n in (0, 0xFFFFFFFF) or held >= n or not align:
         return None
     return (
         f"{os.fspath(path)!r} is truncated: its header declares {n // align} frames "
@@ -235,11 +205,8 @@ def read_audio(
     :class:`AudioFileError`; a truncated WAV warns (:class:`TruncatedAudioWarning`)."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path={path!r} must be a file path (str or os.PathLike)")
-    if not (
-        channel is None
-        or (isinstance(channel, str) and channel == "mix")
-        or (isinstance(channel, numbers.Integral) and not isinstance(channel, bool))
-    ):
+    index = isinstance(channel, numbers.Integral) and not isinstance(channel, bool)
+    if not (channel is None or (isinstance(channel, str) and channel == "mix") or index):
         raise ParameterError(
             f"channel={channel!r} must be None (all channels), 'mix' or a channel index"
         )
@@ -258,17 +225,15 @@ def read_audio(
     if short is not None:
         warnings.warn(short, TruncatedAudioWarning, stacklevel=2)
     n_ch = audio.shape[1]
+    if index and not 0 <= channel < n_ch:
+        raise ParameterError(
+            f"channel={channel!r} is out of range: {str(p)!r} has {n_ch} channel"
+            f"{'s' if n_ch != 1 else ''} (0 to {n_ch - 1})"
+        )
     if channel is None:
         out = audio[:, 0] if n_ch == 1 else audio
-    elif isinstance(channel, str):
-        out = audio.mean(axis=1)
     else:
-        if not 0 <= channel < n_ch:
-            raise ParameterError(
-                f"channel={channel!r} is out of range: {str(p)!r} has {n_ch} channel"
-                f"{'s' if n_ch != 1 else ''} (0 to {n_ch - 1})"
-            )
-        out = audio[:, int(channel)]
+        out = audio[:, int(channel)] if index else audio.mean(axis=1)
     return np.ascontiguousarray(out), int(sr)
 
 
@@ -284,15 +249,10 @@ def normalize(
 ) -> tuple[np.ndarray, float]:
     """Scale ``audio`` (``samplerate`` Hz, in ``units``: "Pa" or "m/s^2") to digital full
     scale: ``(audio * gain, gain)``, gain in full scale per unit, same shape and dtype.
-
-    ``mode``: "peak" puts the sample peak at ``peak_db`` dBFS; "loudness" the integrated
-    loudness of ITU-R BS.1770-4 (optional ``pyloudnorm``; a sound shorter than one 400 ms
-    gating block is zero-padded for the measurement; the -70 LUFS gate is not scale
-    invariant, so the gain is refined to 0.001 LU) at ``loudness_lufs`` LUFS, refused if
-    the sample peak then passes ``max_peak`` (None: no limit, for float files); "physical"
-    divides by :data:`PHYSICAL_FULL_SCALE` whatever the audio, so scenes keep their true
-    level relation; "none" keeps the units. All-zero audio keeps gain 1.
-    """
+    ``mode``: "peak" to ``peak_db`` dBFS; "loudness" to ``loudness_lufs`` LUFS of ITU-R
+    BS.1770-4 (optional ``pyloudnorm``; refused if the peak passes ``max_peak``, None: no
+    limit); "physical" divides by :data:`PHYSICAL_FULL_SCALE`, so scenes keep their level
+    relation; "none" keeps the units. All-zero audio keeps gain 1."""
     mode = checks.choice("mode", mode, NORMALIZE_MODES)
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
@@ -303,7 +263,6 @@ def normalize(
     ):
         if checks.real(name, value, unit) > 0.0:
             raise ParameterError(f"{name}={value!r} must be <= 0 ({unit})")
-    target_peak_db, target_lufs = float(peak_db), float(loudness_lufs)
     limit = None if max_peak is None else checks.positive("max_peak", max_peak, "full scale")
     dtype = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
     x = a.astype(np.float64)
@@ -317,10 +276,11 @@ def normalize(
     if peak == 0.0:
         return x.astype(dtype), 1.0
     if mode == "peak":
-        target = 10.0 ** (target_peak_db / 20.0)
+        target = 10.0 ** (float(peak_db) / 20.0)
         # (x / peak) is exactly +-1 at the peak and below it elsewhere (correct
         # rounding is monotonic), so the result never overshoots the target.
         return ((x / peak) * target).astype(dtype), target / peak
+    target_lufs = float(loudness_lufs)
     gain = _loudness_gain(x / peak, sr, target_lufs) / peak
     y = x * gain
     out_peak = _peak(y)
@@ -344,7 +304,9 @@ def padded_to_block(x: np.ndarray, samplerate: int) -> np.ndarray:
 
 
 def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
-    """Gain that puts the BS.1770 integrated loudness of ``x`` (peak 1) at ``target``."""
+    """Gain that puts the BS.1770 integrated loudness of ``x`` (peak 1, zero-padded to one
+    gating block) at ``target``, refined to 0.001 LU (the -70 LUFS gate is not scale
+    invariant)."""
     try:
         import pyloudnorm
     except ImportError:
@@ -359,13 +321,9 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
         )
     meter = pyloudnorm.Meter(sr, block_size=LOUDNESS_BLOCK)
     x = padded_to_block(x, sr)
-
-    def measure(g):
-        return float(meter.integrated_loudness(x * g))
-
     gain = 1.0
     for _ in range(8):
-        lufs = measure(gain)
+        lufs = float(meter.integrated_loudness(x * gain))
         if not math.isfinite(lufs) or lufs < -70.0:
             raise ParameterError(
                 f"audio has no measurable loudness ({lufs:.1f} LUFS at gain {gain:.3g}: every "
@@ -390,9 +348,6 @@ def fade_out_window(frames: int) -> np.ndarray:
 
 def apply_fade_out(audio: np.ndarray, frames: int) -> None:
     """Multiply the last ``frames`` frames of ``audio`` (axis 0) by :func:`fade_out_window`."""
-    if frames <= 0:
-        return
-    w = fade_out_window(frames)
-    if audio.ndim == 2:
-        w = w[:, None]
-    audio[audio.shape[0] - frames :] *= w
+    if frames > 0:
+        w = fade_out_window(frames)
+        audio[audio.shape[0] - frames :] *= w[:, None] if audio.ndim == 2 else w

@@ -1,11 +1,7 @@
-"""Caches of expensive results (plate modes, radiation gains): in memory and on disk.
-
-:class:`MemoryCache`: results under a key (canonical JSON of everything that determines
-them), least recently used dropped first; thread-safe. On disk: ``.npz`` files in
-:func:`cache_dir` named by the key's digest, shared by every process, written atomically
-with the SHA-256 of their arrays (a damaged file is recomputed), their total bounded by
-:func:`max_bytes`, evicting by modification time.
-"""
+"""Caches of expensive results (plate modes, radiation gains) under a key (canonical JSON
+of all that determines them): :class:`MemoryCache`, least recently used dropped first; on
+disk, ``.npz`` files in :func:`cache_dir` shared by every process, written atomically with
+the SHA-256 of their arrays (a damaged file is recomputed), bounded by :func:`max_bytes`."""
 
 from __future__ import annotations
 
@@ -25,18 +21,13 @@ import numpy as np
 from synth import checks
 from synth.store.atomic import write_atomically
 
-#: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
-#: radiation gains well under 1 MB: a few dozen plates fit).
+#: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB).
 DEFAULT_MAX_BYTES = 512 * 1024 * 1024
-
 #: Name of the array holding the SHA-256 of the others in every entry.
 DIGEST_ARRAY = "__sha256__"
-
-#: A temporary file older than this (s) was left by a process that died mid-write.
+#: Age (s) past which a temporary was left by a writer that died.
 STALE_TEMPORARY_AGE = 3600.0
-
-#: How long a process trusts its own count of the disk cache's total size (s) before it
-#: scans the directory again (to see other processes' writes and remove stale temporaries).
+#: How long a process trusts its count of the disk cache's size before scanning again, s.
 RESCAN_SECONDS = 30.0
 
 
@@ -109,8 +100,7 @@ class _SizeCount:
     def __init__(self):
         self._lock = threading.Lock()
         self._directory: Path | None = None
-        self._total = 0
-        self._scanned = -math.inf
+        self._total, self._scanned = 0, -math.inf
 
     def after_write(self, path: Path, limit: int) -> None:
         try:
@@ -134,15 +124,9 @@ class CacheEntryError(ValueError):
     """A disk cache entry whose stored digest does not match its arrays (or has none)."""
 
 
-class VerifiedArrays(dict):
+class VerifiedArrays(dict, contextlib.AbstractContextManager):
     """The arrays of a cache entry whose digest matched, opened in ``with`` as numpy's
     ``NpzFile`` is."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
 
 
 def load_npz(path: Path) -> VerifiedArrays:
@@ -176,13 +160,10 @@ def _is_temporary(p: Path) -> bool:
 def _entries(directory: Path) -> list[DiskEntry]:
     out = []
     for p in directory.glob("*.npz"):
-        if _is_temporary(p):
-            continue
-        try:
-            st = p.stat()
-        except FileNotFoundError:  # evicted by another process meanwhile
-            continue
-        out.append(DiskEntry(p, st.st_size, st.st_mtime))
+        with contextlib.suppress(FileNotFoundError):  # evicted by another process meanwhile
+            if not _is_temporary(p):
+                st = p.stat()
+                out.append(DiskEntry(p, st.st_size, st.st_mtime))
     return out
 
 
@@ -258,11 +239,9 @@ class MemoryCache:
     def __init__(
         self, computed: str, *, max_entries: int | None = None, max_bytes: int | None = None
     ):
-        self.max_entries = max_entries
-        self.max_bytes = max_bytes
+        self.max_entries, self.max_bytes, self._computed = max_entries, max_bytes, computed
         self._items: OrderedDict = OrderedDict()
         self._lock = threading.Lock()
-        self._computed = computed
         self._stats = {computed: 0, "memory_hits": 0, "disk_hits": 0, "disk_writes": 0}
 
     def info(self) -> dict:

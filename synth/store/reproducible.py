@@ -9,6 +9,7 @@ serial to a given number (checksums recomputed), so the same samples give the sa
 from __future__ import annotations
 
 import hashlib
+import io
 import struct
 
 import numpy as np
@@ -16,25 +17,21 @@ import numpy as np
 __all__ = ["decoded_sha256", "ogg_serial_for", "reproducible", "set_ogg_serial"]
 
 
-def _crc_table() -> np.ndarray:
-    table = np.zeros(256, dtype=np.uint32)
-    for i in range(256):
-        r = i << 24
-        for _ in range(8):
-            r = ((r << 1) ^ 0x04C11DB7) if r & 0x80000000 else (r << 1)
-        table[i] = r & 0xFFFFFFFF
-    return table
+def _crc_entry(i: int) -> int:
+    r = i << 24
+    for _ in range(8):
+        r = ((r << 1) ^ 0x04C11DB7) if r & 0x80000000 else (r << 1)
+    return r & 0xFFFFFFFF
 
 
-_CRC_TABLE = [int(v) for v in _crc_table()]
+_CRC_TABLE = [_crc_entry(i) for i in range(256)]
 
 
 def ogg_crc(page: bytes) -> int:
     """The Ogg CRC-32 of ``page`` (its CRC field must be zero)."""
     crc = 0
-    table = _CRC_TABLE
     for b in page:
-        crc = ((crc << 8) & 0xFFFFFFFF) ^ table[((crc >> 24) ^ b) & 0xFF]
+        crc = ((crc << 8) & 0xFFFFFFFF) ^ _CRC_TABLE[((crc >> 24) ^ b) & 0xFF]
     return crc
 
 
@@ -64,20 +61,27 @@ def set_ogg_serial(data: bytes, serial: int) -> bytes:
     return bytes(out)
 
 
+def riff_chunks(f):
+    """The chunks of the RIFF/WAVE file object ``f`` up to ``data``: ``(id, size in bytes,
+    offset of its content)``, ``f`` at that offset; none if ``f`` is not RIFF/WAVE."""
+    head = f.read(12)
+    if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
+        return
+    while len(chunk := f.read(8)) == 8:
+        cid, size, at = chunk[:4], struct.unpack("<I", chunk[4:])[0], f.tell()
+        yield cid, size, at
+        if cid == b"data":
+            return
+        f.seek(at + size + (size & 1))
+
+
 def _zero_wav_peak_timestamp(data: bytes) -> bytes:
     """WAV ``data`` with the timestamp of its ``PEAK`` chunk (if any) set to 0."""
-    if data[:4] != b"RIFF" or data[8:12] != b"WAVE":
-        return data
     out = bytearray(data)
-    pos = 12
-    while pos + 8 <= len(out):
-        tag, size = bytes(out[pos : pos + 4]), struct.unpack_from("<I", out, pos + 4)[0]
-        if tag == b"PEAK" and size >= 8:
-            struct.pack_into("<I", out, pos + 12, 0)  # after the chunk's version field
+    for cid, size, at in riff_chunks(io.BytesIO(data)):
+        if cid == b"PEAK" and size >= 8:
+            struct.pack_into("<I", out, at + 4, 0)  # after the chunk's version field
             break
-        if tag == b"data":
-            break
-        pos += 8 + size + (size & 1)
     return bytes(out)
 
 
@@ -86,17 +90,13 @@ def reproducible(data: bytes, fmt: str, identity: str) -> bytes:
     and ``identity`` (the Ogg serial is :func:`ogg_serial_for` of it)."""
     if fmt == "ogg":
         return set_ogg_serial(data, ogg_serial_for(identity))
-    if fmt == "wav":
-        return _zero_wav_peak_timestamp(data)
-    return data
+    return _zero_wav_peak_timestamp(data) if fmt == "wav" else data
 
 
 def decoded_sha256(data: bytes) -> str:
     """SHA-256 (hex) of the decoded samples of an encoded file: 32-bit floats,
     little-endian, frames in order, channels interleaved (exact for PCM up to 24 bits;
     for a lossy format the decoder's output, the same on every run of one decoder)."""
-    import io
-
     import soundfile
 
     samples, _ = soundfile.read(io.BytesIO(data), dtype="float32", always_2d=True)

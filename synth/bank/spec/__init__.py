@@ -1,13 +1,7 @@
 """Bank specs: a TOML file describing many variations of one preset, and their plan
-(docs/banks.md, "Every key of a spec").
-
-Each row's ranges come from its own generator ``numpy.random.default_rng([seed, i])`` and
-list combinations are drawn block by block (:class:`_ListDraws`), so raising ``count`` only
-adds rows. ``restitution_scale`` scales the impacts
-(:func:`synth.stimuli.sequences.scaled_sequence`); tags, labels, the preset's name and the
-name template change no sound (:func:`compared_form`). A spec that cannot be run is a
-:class:`BankSpecError` naming the key, its value and what is allowed, before any work.
-"""
+(docs/banks.md, "Every key of a spec"). Each row draws from its own generator
+``default_rng([seed, i])``, so raising ``count`` only adds rows; a spec that cannot be run is
+a :class:`BankSpecError` naming the key, its value and what is allowed, before any work."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """A bank spec's record (:class:`BankSpec`, its axes), its keys and defaults, its stored
-and compared forms, and the error a spec's mistake raises (:class:`BankSpecError`).
-"""
+and compared forms, and the error a spec's mistake raises (:class:`BankSpecError`)."""
 
 from __future__ import annotations
 
@@ -46,18 +45,16 @@ RESTITUTION_SCALE = "restitution_scale"
 #: The bank's level default: one calibration for every file (see synth.store.audio).
 DEFAULT_NORMALIZE = "physical"
 
-#: The bank's impact limit (``[render] max_impacts``): a stated stop rule for a ball that
-#: loses little per bounce (e near 0.99 would bounce to ``max_duration``). Kinetic energy
-#: falls by e^2 per bounce (docs/physics.md, "Bounces"), so with e <= 0.89 impact 64 is
-#: 20 * 63 * log10(1 / 0.89) = 64 dB down, past the -60 dB level rule that ends the series
-#: by itself; a livelier ball stops here ("max-impacts").
+#: The bank's impact limit (``[render] max_impacts``), a stop rule for a ball that loses
+#: little per bounce: energy falls by e^2 a bounce, so with e <= 0.89 impact 64 is
+#: 20 * 63 * log10(1 / 0.89) = 64 dB down, past the -60 dB rule that ends a series anyway.
 BANK_MAX_IMPACTS = 64
 
 #: What a bank's ``[render]`` takes when neither the spec nor the preset sets it.
 RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPACTS}
 
-#: Largest plan accepted (rows), a guard against a mistyped count or grid: every row is
-#: checked before the bank starts, and this many rows is already about a day of one core.
+#: Largest plan accepted (rows), a guard against a mistyped count or grid (about a day of
+#: one core).
 MAX_ROWS = 100_000
 
 #: Version of the plan's drawing rules, stored with a bank (other rules, another bank): 3

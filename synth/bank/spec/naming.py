@@ -1,6 +1,5 @@
 """The rows' labels and file names: the spec's ``labels`` and its ``name`` template filled
-with each row's values, checked to be distinct and portable.
-"""
+with each row's values, checked to be distinct and portable."""
 
 from __future__ import annotations
 
@@ -76,30 +75,31 @@ def file_name(spec: BankSpec, index: int, values: dict) -> str:
     try:
         stem = spec.name.format_map(_mapping(spec, index, values))
     except (KeyError, AttributeError, IndexError, ValueError, TypeError) as exc:
-        raise spec_error(
-            "name",
-            spec.name,
+        raise _name_error(
+            spec,
             f"cannot be filled ({type(exc).__name__}: {exc}); "
             f"fields: preset, index, {', '.join(_field_names(spec))}",
         ) from None
     parts = stem.split("/")
     if "\\" in stem or "\0" in stem or any(not part or part.startswith(".") for part in parts):
-        raise spec_error(
-            "name",
-            spec.name,
+        raise _name_error(
+            spec,
             f"makes the file name {stem!r}: a name's folders and file must not be empty or "
             f"start with '.' (no '..', no absolute path), and '/' is the only separator",
         )
     name = f"{stem}.{spec.suffix}"
     longest = max((p for p in name.split("/")), key=lambda p: len(p.encode("utf-8")))
     if len(longest.encode("utf-8")) > MAX_NAME_BYTES:
-        raise spec_error(
-            "name",
-            spec.name,
+        raise _name_error(
+            spec,
             f"makes the name {longest!r} of {len(longest.encode('utf-8'))} bytes for row "
             f"{index}: a file or folder name may have at most {MAX_NAME_BYTES} bytes",
         )
     return name
+
+
+def _name_error(spec: BankSpec, why: str):
+    return spec_error("name", spec.name, why)
 
 
 def _field_names(spec: BankSpec) -> list[str]:
@@ -119,9 +119,8 @@ def check_template(spec: BankSpec) -> None:
     for f in fields:
         root = f.split(".", 1)[0].split("[", 1)[0]
         if root not in allowed_roots:
-            raise spec_error(
-                "name",
-                spec.name,
+            raise _name_error(
+                spec,
                 f"names {{{f}}}, which is not an axis; fields: preset, index, "
                 f"{', '.join(_field_names(spec)) or '(no axes)'}",
             )
@@ -130,8 +129,6 @@ def check_template(spec: BankSpec) -> None:
             and f.startswith(root + ".")
             and f.split("[", 1)[0] not in spec.keys
         ):
-            raise spec_error(
-                "name",
-                spec.name,
-                f"names {{{f}}}, which is not an axis; axes: {', '.join(spec.keys)}",
+            raise _name_error(
+                spec, f"names {{{f}}}, which is not an axis; axes: {', '.join(spec.keys)}"
             )

@@ -1,6 +1,5 @@
 """The plan: a spec's rows (:class:`PlanItem`) with their file names and scenes, each held to
-the render's cost budget, and the row lists of ``--redo``.
-"""
+the render's cost budget, and the row lists of ``--redo``."""
 
 from __future__ import annotations
 
@@ -76,12 +75,8 @@ def row_problem(spec: BankSpec, item: PlanItem, budget: cost.Budget | None = Non
 
 def check_rows(spec: BankSpec, items) -> None:
     """Refuse the plan if a row cannot be rendered, naming the rows, values and problems."""
-    bad = []
     budget = cost.Budget.from_environment()
-    for item in items:
-        problem = row_problem(spec, item, budget)
-        if problem is not None:
-            bad.append((item, problem))
+    bad = [(item, why) for item in items if (why := row_problem(spec, item, budget)) is not None]
     if not bad:
         return
     lines = [

@@ -12,19 +12,14 @@ import numpy as np
 
 from synth.bank.spec.model import BankSpec, ListAxis, RangeAxis, spec_error
 
-#: Draws tried for a row before a ``min_distance`` is declared too large.
+#: Draws tried for a row before a ``min_distance`` is declared too large; largest ``count``
+#: with ``min_distance`` (each row is compared with every earlier one).
 MIN_DISTANCE_ATTEMPTS = 1000
-
-#: Largest ``count`` with ``min_distance`` (each row is compared with every earlier one).
 MIN_DISTANCE_MAX_ROWS = 20_000
-
 #: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
-#: or set without it ("grid": ``steps`` values per range, spaced evenly or, with log,
-#: geometrically).
+#: or set without it ("grid": ``steps`` values per range, evenly or, with log, geometrically).
 SAMPLINGS = ("random", "lhs", "grid")
-
-#: Rows of one Latin-hypercube block (``sampling = "lhs"``): within each block of this
-#: many consecutive rows every range axis has one row in each of as many equal strata.
+#: Rows of one Latin-hypercube block: in each, every range axis has one row per stratum.
 LHS_BLOCK = 32
 
 #: Most combinations of the list axes drawn as whole permutations, block by block
@@ -131,11 +126,9 @@ def _unit_point(spec: BankSpec, values: dict) -> np.ndarray:
 
 def _spaced_variations(spec: BankSpec):
     """Rows with ``min_distance``: row ``i`` draws its ranges from ``default_rng([seed,
-    i])`` until its point is at least ``min_distance`` from every earlier row's (so it
-    depends on its index and the rows before it, not on the count); its lists are
-    drawn as without it (:class:`_ListDraws`)."""
-    points = []
-    lists = _ListDraws(spec)
+    i])`` until its point is at least ``min_distance`` from every earlier row's (not
+    depending on the count); its lists as without it (:class:`_ListDraws`)."""
+    points, lists = [], _ListDraws(spec)
     for i in range(spec.count):
         rng = np.random.default_rng([spec.seed, i])
         for _ in range(MIN_DISTANCE_ATTEMPTS):
@@ -200,12 +193,10 @@ def variations(spec: BankSpec):
     """The varied values of every row, in index order (a generator of dicts)."""
     if spec.count is not None and spec.min_distance is not None:
         yield from _spaced_variations(spec)
-        return
-    if spec.count is not None:
+    elif spec.count is not None:
         lists = _ListDraws(spec)
-        for i in range(spec.count):
-            yield _draw(spec, i, lists.values(i))
-        return
-    lists = [a for a in spec.axes if isinstance(a, ListAxis)]
-    for i, combo in enumerate(itertools.product(*(a.values for a in lists))):
-        yield _draw(spec, i, {a.key: v for a, v in zip(lists, combo)})
+        yield from (_draw(spec, i, lists.values(i)) for i in range(spec.count))
+    else:
+        axes = [a for a in spec.axes if isinstance(a, ListAxis)]
+        for i, combo in enumerate(itertools.product(*(a.values for a in axes))):
+            yield _draw(spec, i, {a.key: v for a, v in zip(axes, combo)})
