@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -16,11 +17,16 @@ VERSION = 1
 
 
 def numerics_key() -> dict:
-    """numpy, scipy and numba versions (BLAS and LAPACK set the last bits): part of disk keys."""
+    """numpy, scipy and numba versions (BLAS and LAPACK set the last bits) and the digest of
+    the mode solvers' sources and all they import (any edit of that code may move the last
+    bits; a version number alone misses one): part of disk keys."""
     import numba
     import scipy
 
-    return {"numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__}
+    from synth.jitcache import source_digest
+
+    return {"numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__,
+            "code": source_digest(str(Path(__file__).with_name("__init__.py")))}  # fmt: skip
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
