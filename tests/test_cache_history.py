@@ -18,7 +18,7 @@ from synth.physics import modal_contact as mc
 from synth.physics import modes as plate_modes
 from synth.physics.bounces import simulate_bounces
 from synth.physics.modal_contact import point as point_module
-from synth.physics.modes import crossover
+from synth.physics.modes import common, crossover
 from synth.physics.scene import Ball, Plate
 from synth.sound import radiation
 from synth.store.cache import cache_dir, cache_path, savez_atomic
@@ -88,6 +88,21 @@ def _edited_solver_entry(plate, position, band):
     with pytest.MonkeyPatch.context() as edited:
         edited.setattr(jitcache, "source_digest", lambda path: f"edited {path}", raising=False)
         key = point_module._point_key(plate, position, band)
+    _other_bits_entry(plate, position, band, key)
+
+
+def _other_machine_entry(plate, position, band):
+    """An entry under the key the point cache gives while its BLAS reads as another build's
+    kernels (other last bits of the same library versions, as another CPU's): not served."""
+    other = (("blas", [["openblas", "0.3.30", "SkylakeX"]]),)
+    with pytest.MonkeyPatch.context() as moved:
+        moved.setattr(common, "_numerics", lambda: other, raising=False)
+        key = point_module._point_key(plate, position, band)
+    _other_bits_entry(plate, position, band, key)
+
+
+def _other_bits_entry(plate, position, band, key):
+    """The point's modes with couplings 1e-12 off, stored under ``key``."""
     m = plate_modes.modes(plate, max_frequency=band, cache=False)
     phi = m.shapes(np.array([position]))[0]
     savez_atomic(
@@ -119,6 +134,7 @@ STATES = {
     ),
     "entry of another solver revision": _legacy_entry,
     "entry of an edited solver": _edited_solver_entry,
+    "entry of another machine's BLAS": _other_machine_entry,
 }
 
 
