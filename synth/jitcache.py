@@ -174,6 +174,14 @@ def closure_digest(path: Path, root: Path | None = None) -> str:
     return _digest(root, import_closure(path, root))
 
 
+@functools.cache
+def source_digest(path: str) -> str:
+    """:func:`closure_digest` of the module at ``path`` (a file of this package), once per
+    process: a disk cache's key names the code that computed its entries, so an entry
+    written by an edited or other revision of that code is recomputed, not served."""
+    return closure_digest(Path(path))
+
+
 def stamp_with_the_import_closure() -> None:
     """Key every kernel of this package in numba's disk cache on the sources its module
     depends on (:func:`closure_digest`), not on its own file alone (numba's stamp, its

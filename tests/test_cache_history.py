@@ -2,7 +2,8 @@
 contact's point modes, a short bounce series on them, and the radiation gains of a band's
 modes are compared bit for bit from an empty cache and from caches that other work filled
 (the same band from memory or disk, a narrower or a wider band, another point, an entry
-written by another revision of the mode solver). A series of bounces amplifies any
+written by another revision or an edit of the mode solver, a crossed-over band solved with
+another low Ritz band). A series of bounces amplifies any
 difference in the modes' last bits into other impact times and counts."""
 
 from __future__ import annotations
@@ -12,10 +13,12 @@ import json
 import numpy as np
 import pytest
 
+from synth import jitcache
 from synth.physics import modal_contact as mc
 from synth.physics import modes as plate_modes
 from synth.physics.bounces import simulate_bounces
 from synth.physics.modal_contact import point as point_module
+from synth.physics.modes import common, crossover
 from synth.physics.scene import Ball, Plate
 from synth.sound import radiation
 from synth.store.cache import cache_dir, cache_path, savez_atomic
@@ -78,6 +81,37 @@ def _legacy_entry(plate, position, band):
     )
 
 
+def _edited_solver_entry(plate, position, band):
+    """An entry under the key the point cache gives while its code reads as edited (the
+    digest of its sources another), holding other last bits, as an edited solver or another
+    revision with the same version numbers leaves one: it must not be served."""
+    with pytest.MonkeyPatch.context() as edited:
+        edited.setattr(jitcache, "source_digest", lambda path: f"edited {path}", raising=False)
+        key = point_module._point_key(plate, position, band)
+    _other_bits_entry(plate, position, band, key)
+
+
+def _other_machine_entry(plate, position, band):
+    """An entry under the key the point cache gives while its BLAS reads as another build's
+    kernels (other last bits of the same library versions, as another CPU's): not served."""
+    other = (("blas", [["openblas", "0.3.30", "SkylakeX"]]),)
+    with pytest.MonkeyPatch.context() as moved:
+        moved.setattr(common, "_numerics", lambda: other, raising=False)
+        key = point_module._point_key(plate, position, band)
+    _other_bits_entry(plate, position, band, key)
+
+
+def _other_bits_entry(plate, position, band, key):
+    """The point's modes with couplings 1e-12 off, stored under ``key``."""
+    m = plate_modes.modes(plate, max_frequency=band, cache=False)
+    phi = m.shapes(np.array([position]))[0]
+    savez_atomic(
+        cache_path("contact-point-modes", key),
+        {"key": np.array(key), "omega": np.array(m.angular_frequencies),
+         "coupling": phi * phi / m.modal_masses * (1.0 + 1e-12)},
+    )  # fmt: skip
+
+
 # each state: what runs before the measured call, in an empty private cache
 STATES = {
     "from disk": lambda plate, pos, band: (
@@ -99,6 +133,8 @@ STATES = {
         plate, (0.5 * plate.length, 0.5 * plate.width), max_frequency=1.5 * band
     ),
     "entry of another solver revision": _legacy_entry,
+    "entry of an edited solver": _edited_solver_entry,
+    "entry of another machine's BLAS": _other_machine_entry,
 }
 
 
@@ -116,6 +152,32 @@ def test_point_modes_and_bounces_are_the_same_bytes_in_every_cache_state(
         _forget_memory()
         before(plate, position, band)
         assert _fingerprint(plate, position, band) == cold, name
+    _forget_memory()
+
+
+#: A band past the Ritz crossover: a low Ritz band of ~100 modes, then ~1700 edge effect modes.
+CROSSED = (Plate("steel", 0.001, 0.3, 0.2, "clamped"), (0.07, 0.13), 100000.0)
+
+
+def test_crossed_over_point_modes_are_keyed_on_the_low_band_they_were_solved_with(
+    tmp_path, monkeypatch
+):
+    # The point's entry names the low Ritz band; one solved with another low band (another
+    # crossover setting) holds other modes and must not be served to this one.
+    plate, position, band = CROSSED
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cold"))
+    _forget_memory()
+    assert plate_modes.modes(plate, max_frequency=band, cache=False).edge_effect() is not None
+    cold = _fingerprint(plate, position, band)
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "other low band"))
+    _forget_memory()
+    with monkeypatch.context() as m:
+        m.setattr(crossover, "LOW_BAND_UNKNOWNS", 200)
+        mc.modal_point(plate, position, max_frequency=band)
+    _forget_memory()
+    assert _fingerprint(plate, position, band) == cold
+    _forget_memory()
+    assert _fingerprint(plate, position, band) == cold, "from disk"
     _forget_memory()
 
 

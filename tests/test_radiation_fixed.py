@@ -80,7 +80,7 @@ def test_fixed_grids_take_the_edge_effect_modes_shapes(monkeypatch):
     # a small free plate past a lowered Ritz crossover (as test_radiation_rectangle_bands):
     # its dynamic edge effect modes, which plate_gains sums by their factor tables, by
     # their shapes on the fixed grids
-    monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
+    monkeypatch.setattr(crossover, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
     monkeypatch.setattr(rules, "RULES", (rules.BandedRule(),))
     plate = Plate(STEEL, 0.002, 0.3, 0.2, "free")

@@ -41,7 +41,7 @@ def test_banded_rectangle_rule_agrees_with_one_rule(monkeypatch, boundary):
     is within tol of the integral: the refinement test's bound); its in-phase bounds within
     10 % (they bound |H_k| and set the tolerance floor; |phi_k| has kinks on the nodal
     lines, which the two grids integrate differently)."""
-    monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
+    monkeypatch.setattr(crossover, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
     part = m.edge_effect()

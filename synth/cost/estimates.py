@@ -108,13 +108,12 @@ def _acoustic(f_max: float) -> float:
 def _crossed(plate, f_max: float) -> bool:
     """Whether ``plate``'s modes up to ``f_max`` (Hz) pass the Ritz crossover (a free or
     clamped plate with dynamic edge effect modes, :func:`synth.physics.modes.modes`)."""
-    from synth.physics.modes import CROSSOVER_UNKNOWNS, dimensionless_band
-    from synth.physics.modes.ritz import ritz_unknowns
+    from synth.physics.modes import dimensionless_band
+    from synth.physics.modes.crossover import crosses
 
     if plate.boundary == "simply-supported":
         return False
-    omega = dimensionless_band(plate, f_max)
-    return ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS
+    return crosses(plate.length / plate.width, dimensionless_band(plate, f_max))
 
 
 def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None):

@@ -297,12 +297,15 @@ def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarr
 
 
 def _point_key(plate: Plate, position, max_frequency: float) -> str:
-    """The disk key of the modes at ``position`` (m): every input and the solver's identity."""
+    """The disk key of the modes at ``position`` (m): every input, the solver's identity and
+    the digest of this module's sources and all they import."""
+    from synth.jitcache import source_digest
     from synth.physics.modes import solver_key
 
     x, y = (float(v).hex() for v in position)
     solver = solver_key(plate, max_frequency)
-    key = dict(_plate_key(plate, max_frequency), x=x, y=y, version=_POINT_VERSION, solver=solver)
+    key = dict(_plate_key(plate, max_frequency), x=x, y=y, version=_POINT_VERSION, solver=solver,
+               code=source_digest(__file__))  # fmt: skip
     return json.dumps(key, sort_keys=True)
 
 

@@ -18,12 +18,11 @@ from synth.physics.modes.cache import band_key, cache_info, cached_ritz, clear_m
 from synth.physics.modes.closed_form import SeparableShapes, SimplySupported
 from synth.physics.modes.common import numerics_key, single_thread_product
 from synth.physics.modes.crossover import (
-    CROSSOVER_UNKNOWNS,
     EDGE_EFFECT_TOLERANCE,
-    LOW_BAND_UNKNOWNS,
     HybridSolution,
-    band_of_unknowns,
     crossed,
+    crosses,
+    low_band,
 )
 from synth.physics.modes.ritz import (
     TOLERANCE,
@@ -31,7 +30,6 @@ from synth.physics.modes.ritz import (
     SummedShapes,
     TooLarge,
     first_basis,
-    ritz_unknowns,
 )
 from synth.physics.scene import Plate, check_type
 from synth.store.cache import cache_dir
@@ -192,9 +190,7 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
     """The dimensionless band of the Ritz problem up to ``max_frequency`` (Hz)."""
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
-    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
-        omega_req = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
-    return omega_req
+    return low_band(aspect, omega_req) if crosses(aspect, omega_req) else omega_req
 
 
 def solver_key(plate: Plate, max_frequency: float) -> str:
@@ -210,7 +206,7 @@ def solver_key(plate: Plate, max_frequency: float) -> str:
         "ritz": band_key(plate.boundary, nu, aspect, ritz_band(plate, max_frequency)),
         "numerics": numerics_key(),
     }
-    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+    if crosses(aspect, omega_req):
         key["edge"] = asymptotic_modes.solution_key(plate.boundary, nu, aspect, omega_req)
     return json.dumps(key, sort_keys=True)
 
@@ -254,7 +250,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     else:
         nu = plate.material.poisson
         try:
-            if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+            if crosses(aspect, omega_req):
                 sol = crossed(plate.boundary, nu, aspect, omega_req, cache)
             else:
                 sol = cached_ritz(plate.boundary, nu, aspect, omega_req, cache)

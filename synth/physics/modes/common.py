@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import functools
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -16,11 +18,37 @@ VERSION = 1
 
 
 def numerics_key() -> dict:
-    """numpy, scipy and numba versions (BLAS and LAPACK set the last bits): part of disk keys."""
+    """What sets the solvers' last bits besides their inputs, part of every disk key: numpy,
+    scipy and numba versions; the BLAS libraries loaded, with the kernels they chose for this
+    CPU; the CPU numba compiles for and the C library (its math functions); the digest of the
+    mode solvers' sources and all they import (any edit may move the last bits)."""
+    return dict(_numerics())
+
+
+@functools.cache
+def _numerics() -> tuple:
+    import hashlib
+    import platform
+
+    import llvmlite.binding as llvm
     import numba
     import scipy
+    import scipy.linalg  # noqa: F401 - loads scipy's BLAS and LAPACK before they are listed
+    from numba.core import config
+    from threadpoolctl import threadpool_info
 
-    return {"numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__}
+    from synth.jitcache import source_digest
+
+    blas = sorted({(i["internal_api"], str(i.get("version")), str(i.get("architecture")))
+                   for i in threadpool_info() if i["user_api"] == "blas"})  # fmt: skip
+    features = config.CPU_FEATURES or llvm.get_host_cpu_features().flatten()
+    return (
+        ("numpy", np.__version__), ("scipy", scipy.__version__), ("numba", numba.__version__),
+        ("blas", [list(b) for b in blas]), ("cpu", config.CPU_NAME or llvm.get_host_cpu_name()),
+        ("cpu_features", hashlib.sha256(features.encode()).hexdigest()[:16]),
+        ("libc", "-".join(platform.libc_ver())),
+        ("code", source_digest(str(Path(__file__).with_name("__init__.py")))),
+    )  # fmt: skip
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:

@@ -36,6 +36,18 @@ def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
     return lo
 
 
+def crosses(aspect: float, omega_req: float) -> bool:
+    """True when the band ``omega_req`` (dimensionless) of aspect ``a/b`` crosses over: its
+    Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS` per class."""
+    return ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS
+
+
+def low_band(aspect: float, omega_req: float) -> float:
+    """The Ritz band (dimensionless) of a crossed-over band ``omega_req``: the one place that
+    sets it, for the solve and for the cache keys that name it."""
+    return band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
+
+
 def _seam(omega: np.ndarray, omega_low: float) -> float:
     """Where the Ritz modes hand over: the middle of the widest relative gap in the top third of
     ``omega <= omega_low`` (an edge mode's error does not move it across)."""
@@ -95,7 +107,7 @@ def crossed(boundary, nu, aspect, omega_req, cache):
     count = asymptotic_modes.mode_count_estimate(aspect, omega_req)
     if count > _MAX_MODES:
         raise TooLarge(int(count), "modes", _MAX_MODES)
-    omega_low = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
+    omega_low = low_band(aspect, omega_req)
     ritz = cached_ritz(boundary, nu, aspect, omega_low, cache)
     edge = asymptotic_modes.solve(boundary, nu, aspect, omega_req)
     return HybridSolution(ritz, omega_low, edge, omega_req)
