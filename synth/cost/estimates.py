@@ -251,19 +251,13 @@ def estimate(
     series = series_seconds(scene, first, longest, o.max_duration)
     seconds = o.preroll + series + tail_seconds(scene.plate, o.floor_db, o.max_tail)
     samples = int(math.ceil(seconds * o.samplerate))
-    solver = solver_cost(scene.plate, f_max, modes)
     impacts = impact_count(first, speed, scene.gravity, o.max_duration)
-    memory = MemoryParts(
-        audio=AUDIO_BYTES_PER_SAMPLE * samples,
-        impacts=16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
-        pulse=16 * points,
-        solver=solver.solver_bytes,
-        shapes=solver.shapes_bytes,
-        radiation=radiation_bytes(scene.plate, scene.listener, modes, f_max),
-    )
+    memory = {
+        "audio": AUDIO_BYTES_PER_SAMPLE * samples,
+        "impacts": 16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
+        "pulse": 16 * points,
+    }
     return CostEstimate(
-        max_frequency=f_max,
-        modes=modes,
         impact_speed=speed,
         hertz_contact=hertz_contact_time(scene.ball, scene.plate, speed),
         longest_contact=longest,
@@ -271,13 +265,30 @@ def estimate(
         pulse_points=points,
         audio_seconds=seconds,
         audio_samples=samples,
-        memory_bytes=memory.total,
         max_duration=o.max_duration,
+        impacts=impacts,
+        **_stages(scene.plate, scene.listener, modes, f_max, budget, **memory),
+    )
+
+
+def _stages(plate, listener, modes: int, f_max: float, budget: Budget, **memory) -> dict:
+    """The fields a :class:`CostEstimate` and a :class:`BodyCost` share: the cold mode solve,
+    the radiation stage and the memory (``memory`` the audio's, impacts' and pulse's bytes)."""
+    solver = solver_cost(plate, f_max, modes)
+    parts = MemoryParts(
+        **memory,
+        solver=solver.solver_bytes,
+        shapes=solver.shapes_bytes,
+        radiation=radiation_bytes(plate, listener, modes, f_max),
+    )
+    return dict(
+        max_frequency=f_max,
+        modes=modes,
         solver_unknowns=solver.unknowns,
         solver_flops=solver.flops,
-        impacts=impacts,
-        memory=memory,
-        radiation=radiation_work(scene.plate, scene.listener, modes, f_max, budget),
+        radiation=radiation_work(plate, listener, modes, f_max, budget),
+        memory=parts,
+        memory_bytes=parts.total,
     )
 
 
@@ -289,24 +300,11 @@ def body_cost(
     the environment's) sets the radiation rules that fit. Nothing is solved."""
     budget = Budget.from_environment() if budget is None else budget
     modes = modal_count(plate, max_frequency)
-    solver = solver_cost(plate, max_frequency, modes)
-    memory = MemoryParts(
-        audio=0,
-        impacts=16 * modes * (voices + MODE_VALUES),
-        pulse=0,
-        solver=solver.solver_bytes,
-        shapes=solver.shapes_bytes,
-        radiation=radiation_bytes(plate, listener, modes, max_frequency),
+    impacts = 16 * modes * (voices + MODE_VALUES)
+    stages = _stages(
+        plate, listener, modes, max_frequency, budget, audio=0, impacts=impacts, pulse=0
     )
-    return BodyCost(
-        max_frequency=max_frequency,
-        modes=modes,
-        solver_unknowns=solver.unknowns,
-        solver_flops=solver.flops,
-        radiation=radiation_work(plate, listener, modes, max_frequency, budget),
-        memory=memory,
-        memory_bytes=memory.total,
-    )
+    return BodyCost(**stages)
 
 
 def check_body(
