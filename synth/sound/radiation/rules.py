@@ -50,6 +50,8 @@ POLAR_RADIAL_TERMS = 2
 #: The measured rates of the estimate's work, shipped with the package (``synth bench cost
 #: --record``): the mode solver's and each radiation rule's (terms per second, by name).
 RATES = Path(__file__).parents[2] / "cost_rates.json"
+#: Each rule's orders relative to the first rule's.
+LEVELS = [REFINE**level for level in range(MAX_RULES)]
 
 
 @dataclass(frozen=True)
@@ -89,16 +91,12 @@ def weighted_counts(counts: RuleWork) -> RuleWork:
     )
 
 
-def _levels():
-    return [REFINE**level for level in range(MAX_RULES)]
-
-
 def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
     """The rectangle rule's work at the wavenumber ``kappa`` (rad/m) for ``modes`` modes
     whose shape values cost ``terms``: the points of its tensor grid, each rule's orders
     ``REFINE^l`` times the first rule's."""
     _, _, px, py = first_rule(size[0], size[1], listener, kappa, tol_panel)
-    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in _levels()]
+    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in LEVELS]
     work = [float(n) * modes * (1 + terms) for n in points]
     return RuleWork("rectangle", tuple(points), tuple(work), 0.0, "points")
 
@@ -109,7 +107,7 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     edges = (*size, listener[0], listener[1])
     panels, orders = radial_rule(size, listener, kb, qa, tol_panel)
     out = []
-    for f in _levels():
+    for f in LEVELS:
         radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
         angular = 0
         for r in map(float, radii):
@@ -323,8 +321,8 @@ def choose_rule(problem: Problem) -> Estimate:
 
 
 @functools.lru_cache(maxsize=256)  # warm renders choose again for every cached gain
-def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
-    estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
+def _cheapest(problem: Problem, rules: tuple) -> Estimate:
+    estimates = [rule.estimate(problem) for rule in rules if rule.applies(problem)]
     holding = [e for e in estimates if e.error_bound <= problem.tol]
     if holding:
         return min(holding, key=lambda e: e.cost)
