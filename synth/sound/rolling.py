@@ -173,47 +173,36 @@ def drive_modes(
         zeta, F_pre = np.array(state.zeta, dtype=complex), float(state.previous)
     # the modes the listener hears, as heard: w_k = l_k zeta_k (l_k its response)
     heard = listener != 0.0
-    every = bool(np.all(heard))
-    table = path.excitation if every else path.excitation[:, heard]
     # the direct term's sum over the modes at each row: interpolated as the rows are
     direct = None if path.direct is None else np.sum(path.direct, axis=1)
     l_heard = listener[heard]
-    modes = _Heard(ringing[heard], l_heard * hold[heard], l_heard * zeta[heard])
-    zeta[heard] = _ring(F, c, path, table, direct, modes, F_pre, audio) / l_heard
+    w = l_heard * zeta[heard]
+    zeta[heard] = _ring(F, c, path, heard, ringing, l_heard * hold[heard], w, direct, F_pre, audio)
+    zeta[heard] /= l_heard
     if state is not None:
-        if not every:
-            # the modes nobody hears: their state alone, as they are (l_k = 1)
-            silent = ~heard
-            modes = _Heard(ringing[silent], hold[silent], zeta[silent])
-            zeta[silent] = _ring(
-                F, c, path, path.excitation[:, silent], None, modes, F_pre, np.zeros(F.size)
-            )
+        silent = ~heard
+        if silent.any():  # the modes nobody hears: their state alone, as they are (l_k = 1)
+            quiet = np.zeros(F.size)
+            w = zeta[silent]
+            zeta[silent] = _ring(F, c, path, silent, ringing, hold[silent], w, None, F_pre, quiet)
         state.zeta = zeta
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
 
 
-@dataclass
-class _Heard:
-    """Modes as heard, for :func:`_drive` (complex (K,) each): one sample's ``ringing`` ``e_k``,
-    the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the ``state`` ``w_k`` (heard: ``Re w_k``)."""
-
-    ringing: np.ndarray
-    gain: np.ndarray
-    state: np.ndarray
-
-
-def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
-    """:func:`_drive` of ``modes`` (``table``: their ``b_k``) into ``out``; returns the final
-    ``w_k``."""
-    wr = np.ascontiguousarray(modes.state.real)
-    wi = np.ascontiguousarray(modes.state.imag)
-    e, g = modes.ringing, modes.gain
+def _ring(force, coordinate, path, modes, ringing, gain, state, direct, previous, out):
+    """:func:`_drive` of the modes of the mask ``modes`` into ``out``: one sample's ``ringing``
+    ``e_k`` (of every mode), the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the ``state``
+    ``w_k`` (heard: ``Re w_k``) of those modes; returns their final ``w_k``."""
+    wr = np.ascontiguousarray(state.real)
+    wi = np.ascontiguousarray(state.imag)
+    e = ringing[modes]
     _drive(
-        force, coordinate, float(path.start), float(path.step), np.ascontiguousarray(table),
+        force, coordinate, float(path.start), float(path.step),
+        np.ascontiguousarray(path.excitation[:, modes]),
         np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
         np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
-        np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag), wr, wi, previous, out,
+        np.ascontiguousarray(gain.real), np.ascontiguousarray(gain.imag), wr, wi, previous, out,
     )  # fmt: skip
     return wr + 1j * wi
 
