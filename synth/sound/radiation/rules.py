@@ -117,27 +117,6 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     return out
 
 
-def polar_work(p: Problem, summed: bool) -> RuleWork:
-    """The polar rule's work for the separable modes of ``p`` (``p.factors`` their factors
-    along x and y); with ``summed`` the summed rule's (Ritz modes of ``p.basis``
-    coefficients, shape values of ``p.terms`` terms)."""
-    modes, (n_x, n_y) = p.modes, p.factors
-    grid = _polar_grid(p.size, p.listener, p.kb, p.qa, p.tol_panel, shorter=not summed)
-    radial = p.basis + 1 if summed else POLAR_RADIAL_TERMS
-    work = [
-        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * radial
-        for radii, angular in grid
-    ]
-    in_phase = in_phase_grid(p.size, p.listener, p.kb, p.tol_panel)
-    xs, ys = in_phase.xs.size, in_phase.ys.size
-    if summed:
-        fixed = float(xs * ys) * modes * (1 + p.terms)
-    else:
-        fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
-    name = "summed" if summed else "polar"
-    return RuleWork(name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
-
-
 @dataclass(frozen=True)
 class EdgeBand:
     """``modes`` edge effect modes whose wavenumber (bending plus acoustic) is at most
@@ -195,13 +174,9 @@ class Estimate:
     counts: RuleWork
     fits: bool
     cost: float
-    tol: float
-
-    @property
-    def error_bound(self) -> float:
-        """The bound of each gain's relative error the convergence test holds: ``tol``
-        where the check rule fits, else none (inf)."""
-        return self.tol if self.fits else math.inf
+    #: The bound of each gain's relative error the convergence test holds: ``tol`` where the
+    #: check rule fits, else none (inf).
+    error_bound: float
 
 
 class Rule:
@@ -220,7 +195,8 @@ class Rule:
         counts = self.counts(problem)
         weighted = weighted_counts(counts)
         cost = weighted.fixed + sum(weighted.work[:2])
-        return Estimate(self, counts, counts.points[1] <= problem.max_points, cost, problem.tol)
+        fits = counts.points[1] <= problem.max_points
+        return Estimate(self, counts, fits, cost, problem.tol if fits else math.inf)
 
 
 class RectangleRule(Rule):
@@ -246,7 +222,19 @@ class PolarRule(Rule):
     name, shapes, summed = "polar", ("separable",), False
 
     def counts(self, p):
-        return polar_work(p, summed=self.summed)
+        """The angular sums (shared by every mode) over the factors along x and y, and per
+        radius and mode the radial terms; outside the refinement the in-phase bounds."""
+        (n_x, n_y), summed = p.factors, self.summed
+        grid = _polar_grid(p.size, p.listener, p.kb, p.qa, p.tol_panel, shorter=not summed)
+        radial = p.basis + 1 if summed else POLAR_RADIAL_TERMS
+        work = [float(a) * (n_x + n_y + n_x * n_y) + float(r) * p.modes * radial for r, a in grid]
+        in_phase = in_phase_grid(p.size, p.listener, p.kb, p.tol_panel)
+        xs, ys = in_phase.xs.size, in_phase.ys.size
+        if summed:
+            fixed = float(xs * ys) * p.modes * (1 + p.terms)
+        else:
+            fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
+        return RuleWork(self.name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
 
     def gains(self, modes, listener, s, settings):
         if self.summed:
