@@ -52,16 +52,13 @@ def _budget_named(message, max_points):
     """A warning of the sums stopped at ``max_points`` (the radiation budget's cut) reworded
     to name the setting to change, ``SYNTH_MAX_RADIATION_WORK``; any other as it is."""
     internal = f"the next rule would exceed max_points={max_points}"
-    text = str(message)
-    if internal not in text:
+    if internal not in str(message):
         return message
-    return type(message)(
-        text.replace(
-            internal,
-            "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise "
-            "it for converged gains; synth info --cost prints the work)",
-        )
+    budget = (
+        "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise it "
+        "for converged gains; synth info --cost prints the work)"
     )
+    return type(message)(str(message).replace(internal, budget))
 
 
 def nearest_distance(plate, microphone) -> float:
