@@ -76,10 +76,10 @@ def path_excitation(
     if not s1 >= s0:
         raise ParameterError(f"stop={stop!r} must be >= start={start!r} (metres)")
     ds = table_step(model) if step is None else checks.positive("step", step, "metres")
-    rows = max(2, int(math.ceil((s1 - s0) / ds)) + 1) if ds > 0.0 else 2
+    rows = max(2, int(math.ceil((s1 - s0) / ds)) + 1)
     ds = (s1 - s0) / (rows - 1) if s1 > s0 else 1.0
     s = s0 + ds * np.arange(rows)
-    s[-1] = max(s1, s0)  # the table ends exactly at the path's last point
+    s[-1] = s1  # the table ends exactly at the path's last point
     points = np.column_stack((ox + ux * s, oy + uy * s))
     masses = np.asarray(model.modes.modal_masses, dtype=float)[model.rendered]
     b = np.ascontiguousarray(model.modes.shapes(points)[:, model.rendered] / masses)
