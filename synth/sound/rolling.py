@@ -171,40 +171,35 @@ def drive_modes(
         zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
     if state is not None:
         zeta, F_pre = np.array(state.zeta, dtype=complex), float(state.previous)
+
+    def ring(modes, gain, w, direct, out):
+        """:func:`_drive` of the modes of the mask ``modes`` into ``out``: the ``gain`` ``g_k``
+        of a unit drive ``b_k F`` and the state ``w_k`` (heard: ``Re w_k``) of those modes;
+        returns their final ``w_k``."""
+        wr, wi = np.ascontiguousarray(w.real), np.ascontiguousarray(w.imag)
+        e = ringing[modes]
+        _drive(
+            F, c, float(path.start), float(path.step),
+            np.ascontiguousarray(path.excitation[:, modes]),
+            np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
+            np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
+            np.ascontiguousarray(gain.real), np.ascontiguousarray(gain.imag), wr, wi, F_pre, out,
+        )  # fmt: skip
+        return wr + 1j * wi
+
     # the modes the listener hears, as heard: w_k = l_k zeta_k (l_k its response)
     heard = listener != 0.0
     # the direct term's sum over the modes at each row: interpolated as the rows are
     direct = None if path.direct is None else np.sum(path.direct, axis=1)
     l_heard = listener[heard]
-    w = l_heard * zeta[heard]
-    zeta[heard] = _ring(F, c, path, heard, ringing, l_heard * hold[heard], w, direct, F_pre, audio)
-    zeta[heard] /= l_heard
+    zeta[heard] = ring(heard, l_heard * hold[heard], l_heard * zeta[heard], direct, audio) / l_heard
     if state is not None:
         silent = ~heard
         if silent.any():  # the modes nobody hears: their state alone, as they are (l_k = 1)
-            quiet = np.zeros(F.size)
-            w = zeta[silent]
-            zeta[silent] = _ring(F, c, path, silent, ringing, hold[silent], w, None, F_pre, quiet)
+            zeta[silent] = ring(silent, hold[silent], zeta[silent], None, np.zeros(F.size))
         state.zeta = zeta
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
-
-
-def _ring(force, coordinate, path, modes, ringing, gain, state, direct, previous, out):
-    """:func:`_drive` of the modes of the mask ``modes`` into ``out``: one sample's ``ringing``
-    ``e_k`` (of every mode), the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the ``state``
-    ``w_k`` (heard: ``Re w_k``) of those modes; returns their final ``w_k``."""
-    wr = np.ascontiguousarray(state.real)
-    wi = np.ascontiguousarray(state.imag)
-    e = ringing[modes]
-    _drive(
-        force, coordinate, float(path.start), float(path.step),
-        np.ascontiguousarray(path.excitation[:, modes]),
-        np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
-        np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
-        np.ascontiguousarray(gain.real), np.ascontiguousarray(gain.imag), wr, wi, previous, out,
-    )  # fmt: skip
-    return wr + 1j * wi
 
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
