@@ -163,10 +163,9 @@ class ModalModel:
         plate, ok = self.modes.plate, self.rendered
         microphone = isinstance(listener, Microphone)
         if microphone and grid is not None and grid.serves(listener.position):
-            sigma, _, wd = _mode_rates(self.modes)
-            poles = -sigma + 1j * wd
+            s = _sum_poles(self.modes, ok)[0]
             h = grid.gains(listener.position, nearest_distance(plate, listener))
-            output = _pressure_output(h * poles / -np.conj(poles), self.poles, ok, plate, listener)
+            output = _pressure_output(h * s / -np.conj(s), self.poles, ok, plate, listener)
         else:
             output = _listener_output(self.modes, listener, self.poles, ok)
         return dataclasses.replace(self, listener=output)
