@@ -105,8 +105,6 @@ class Rates:
         """Estimated wall seconds (s) of ``cost``'s cold mode solve and radiation stage: the
         fewest rules the convergence test takes (two) and every rule the budget holds."""
         r = cost.radiation
-        if r.rule == "none":
-            return cost.solver_flops / self.solver, 0.0, 0.0
         rate = self.radiation["rectangle"]  # the work is in rectangle-term equivalents
         fewest = r.work_of(min(2, r.rules))
         return cost.solver_flops / self.solver, fewest / rate, r.work / rate
@@ -192,9 +190,7 @@ class RadiationWork:
 
     def work_of(self, rules: int) -> float:
         """Rectangle-term equivalents of the first ``rules`` rules (and of the work outside
-        the refinement)."""
-        if self.rule == "none":
-            return 0.0
+        the refinement; none for an accelerometer)."""
         return self.fixed_work + float(sum(self.rule_work[:rules]))
 
     @property
