@@ -63,9 +63,9 @@ def _budget_named(message, max_points):
 
 def nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
-    from synth.sound.radiation.common import nearest_distance as to_rectangle
+    from synth.sound.radiation.common import distance_range
 
-    return to_rectangle((plate.length, plate.width), microphone.position)
+    return distance_range((plate.length, plate.width), microphone.position)[0]
 
 
 @dataclass(frozen=True, eq=False)

@@ -312,9 +312,10 @@ def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarS
     return _PolarSetup(size, listener, q_s, checked, q, tol_panel, panels, orders, r_mid, halvings)
 
 
-def _polar_gains(caller, shapes, listener_position, s, full_output, settings):
-    """:func:`separable_gains` or :func:`summed_gains` (``caller``) of ``shapes``: each mode
-    refined alone, the in-phase integrals on :func:`~.rectangle.in_phase_grid`."""
+def _polar_gains(caller, shapes, listener_position, s, settings):
+    """The :class:`RadiationResult` of :func:`separable_gains` or :func:`summed_gains`
+    (``caller``) and the checked tolerance: each mode refined alone, the in-phase integrals
+    on :func:`~.rectangle.in_phase_grid`."""
     from synth.physics.modes import SeparableShapes, SummedShapes
 
     kind = SeparableShapes if caller == "separable_gains" else SummedShapes
@@ -327,7 +328,7 @@ def _polar_gains(caller, shapes, listener_position, s, full_output, settings):
     setup = _polar_setup((shapes.length, shapes.width), n_modes, listener_position, s, settings)
     checked = setup.settings
     if setup.q.size == 0:
-        return gains_of(RadiationResult.no_modes(), caller, checked.tol, full_output)
+        return RadiationResult.no_modes(), checked.tol
     mag = in_phase(shapes, setup)
     counts = {}
 
@@ -347,7 +348,7 @@ def _polar_gains(caller, shapes, listener_position, s, full_output, settings):
     factor, scale = checked.factors(setup.q_s, setup.r_mid)
     panels = (len(setup.panels), 0)
     result = refine(rule, npoints, factor, scale, checked.tol, checked.max_points, panels, True)
-    return gains_of(dataclasses.replace(result, rule="polar"), caller, checked.tol, full_output)
+    return dataclasses.replace(result, rule="polar"), checked.tol
 
 
 def separable_gains(shapes, listener_position, s, *, full_output=False, **settings):
@@ -356,11 +357,13 @@ def separable_gains(shapes, listener_position, s, *, full_output=False, **settin
     about the microphone: the same integral, keywords (``max_wavenumber`` bounding every
     shape's, rad/m; ``max_points`` the points of one rule), tolerance, convergence test and
     result (``rule`` "polar", ``panels``: the radial panels and 0)."""
-    return _polar_gains("separable_gains", shapes, listener_position, s, full_output, settings)
+    result, tol = _polar_gains("separable_gains", shapes, listener_position, s, settings)
+    return gains_of(result, "separable_gains", tol, full_output)
 
 
 def summed_gains(shapes, listener_position, s, *, full_output=False, **settings):
     """:func:`separable_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)`` (``shapes``, a
     :class:`synth.physics.modes.SummedShapes` with the plate's size): about ``N_theta n_x n_y
     + N_r n_basis n_modes / 4`` multiply-adds and ``N_r n_modes`` exponentials per rule."""
-    return _polar_gains("summed_gains", shapes, listener_position, s, full_output, settings)
+    result, tol = _polar_gains("summed_gains", shapes, listener_position, s, settings)
+    return gains_of(result, "summed_gains", tol, full_output)
