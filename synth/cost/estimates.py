@@ -122,6 +122,7 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
     hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz) with ``max_points`` (default:
     the sums' own), before any mode is solved (past the Ritz crossover, its Ritz low band
     and edge effect modes counted by :func:`modal_count`)."""
+    from synth.physics.modes import frequency_scale, ritz_band
     from synth.sound import radiation as rad
     from synth.sound.radiation.rules import edge_split, plate_problem
 
@@ -129,7 +130,9 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
     kb = bending_wavenumber(plate, f_max)
     edge = None
     if _crossed(plate, f_max):
-        f_low = _ritz_band_frequency(plate, f_max)
+        # the top of the Ritz low band, Hz: its seam with the edge effect modes lies at or
+        # below it (synth.physics.modes.crossover)
+        f_low = ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
         n_low = modal_count(plate, f_low)
         edge = edge_split(kb, f_low, f_max, n_low, lambda f: modal_count(plate, f), SOUND_SPEED)
     return plate_problem(
@@ -187,14 +190,6 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     terms = shape_terms(plate, f_max)
     problem = radiation_problem(plate, listener, modes, f_max)
     return _fitted(choose_rule(problem).counts, modes, terms, budget)
-
-
-def _ritz_band_frequency(plate, f_max: float) -> float:
-    """The top of the Ritz low band of a plate past the crossover, Hz (its seam with the
-    edge effect modes lies at or below it, :mod:`synth.physics.modes.crossover`)."""
-    from synth.physics.modes import frequency_scale, ritz_band
-
-    return ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
 
 
 def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
