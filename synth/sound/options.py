@@ -41,10 +41,6 @@ MAX_IMPACTS = 100_000
 _option = checks.option
 
 
-def _choice(name, value, checked) -> str:
-    return checks.choice(name, value, NORMALIZE)
-
-
 def _negative_db(unit: str, least: float | None = None, closed: bool = False, why: str = ""):
     """The check of a level below 0, or in ``[least, 0)`` (``[least, 0]`` when ``closed``)."""
 
@@ -108,7 +104,8 @@ class RenderOptions:
         allowed=f"an integer in [{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]",
     )  # fmt: skip
     normalize: str = _option(
-        "peak", unit="", metavar="MODE", check=_choice, choices=NORMALIZE,
+        "peak", unit="", metavar="MODE", choices=NORMALIZE,
+        check=lambda name, value, checked: checks.choice(name, value, NORMALIZE),
         allowed=", ".join(NORMALIZE),
         doc="level: peak (to peak_db dBFS), loudness (to loudness_lufs LUFS, needs "
         "pyloudnorm), physical (1000 Pa or 10 000 m/s^2 full scale), none (Pa or m/s^2; a "
