@@ -116,6 +116,11 @@ def in_phase_grid(size, listener, kb: float, tol: float) -> Grid:
     return panel_grid(ex, ey, *refined)
 
 
+def _workers() -> int:
+    """Threads of the Rayleigh sums: one less than numba's (at least one)."""
+    return max(1, numba.get_num_threads() - 1)
+
+
 def apply_rule(shape_fn, grid: Grid, listener, r_mid, poles: Poles, chunk):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA`` on
     ``grid``, ``chunk`` points at a time. While the worker threads (one less than numba's)
@@ -126,7 +131,7 @@ def apply_rule(shape_fn, grid: Grid, listener, r_mid, poles: Poles, chunk):
     xs, wx, ys, wy = grid
     m, ny = poles.qr.size, ys.size
     n_total = xs.size * ny
-    workers = max(1, numba.get_num_threads() - 1)
+    workers = _workers()
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
     with ThreadPoolExecutor(max_workers=workers) as pool:
         running = []
