@@ -8,7 +8,9 @@ rule and its check rule in rectangle-term equivalents, over the shipped rectangl
 estimated seconds on the machine that recorded the rates) and the rule
 :func:`~synth.sound.radiation.rules.choose_rule` takes; per rule, the scenes it is chosen for
 and its least cost ratio to the cheapest other rule (:func:`rule_summary`). A rule never
-chosen here is a rule whose estimated cost never pays on these scenes.
+chosen here is a rule whose estimated cost never pays on these scenes. ``python -m
+benchmarks.rules`` gives the same summary for the random scenes of
+:mod:`benchmarks.analysis_scenes` (seeds 5000-5999, :func:`run_random_rules`).
 """
 
 from __future__ import annotations
@@ -38,33 +40,50 @@ def _scenes() -> list:
     return rows
 
 
-def run_rules() -> dict:
-    """``rows``, one per scene with a microphone: its shapes, modes, each rule's estimated
-    seconds (absent where the rule does not apply) and the rule chosen."""
-    from synth.cost import Rates, modal_count
+def _row(name, scene, fs, rate) -> dict | None:
+    """One row of :func:`run_rules` for ``scene`` at ``fs`` Hz (``rate`` the shipped rectangle
+    rate, terms per second), or None for an accelerometer."""
+    from synth.cost import modal_count
     from synth.cost.estimates import radiation_problem
     from synth.physics.scene import Microphone
     from synth.sound.radiation.rules import RULES, choose_rule
 
+    if not isinstance(scene.listener, Microphone):
+        return None
+    f_max = 0.5 * fs
+    modes = modal_count(scene.plate, f_max)
+    problem = radiation_problem(scene.plate, scene.listener, modes, f_max)
+    return {
+        "scene": name,
+        "shapes": problem.shapes,
+        "modes": modes,
+        "seconds": {r.name: r.estimate(problem).cost / rate for r in RULES if r.applies(problem)},
+        "chosen": choose_rule(problem).rule.name,
+    }
+
+
+def run_rules() -> dict:
+    """``rows``, one per scene with a microphone: its shapes, modes, each rule's estimated
+    seconds (absent where the rule does not apply) and the rule chosen."""
+    from synth.cost import Rates
+
+    rate = Rates.load().radiation["rectangle"]
+    rows = [_row(name, scene, fs, rate) for name, scene, fs in _scenes()]
+    return {"rows": [row for row in rows if row is not None]}
+
+
+def run_random_rules(seeds=range(5000, 6000)) -> dict:
+    """:func:`run_rules` for the random scenes of :mod:`benchmarks.analysis_scenes`, one a
+    seed (those with a microphone), at their own sample rates."""
+    from benchmarks.analysis_scenes import build_scene, random_specs
+    from synth.cost import Rates
+
     rate = Rates.load().radiation["rectangle"]
     rows = []
-    for name, scene, fs in _scenes():
-        if not isinstance(scene.listener, Microphone):
-            continue
-        f_max = 0.5 * fs
-        modes = modal_count(scene.plate, f_max)
-        problem = radiation_problem(scene.plate, scene.listener, modes, f_max)
-        costs = {r.name: r.estimate(problem).cost / rate for r in RULES if r.applies(problem)}
-        rows.append(
-            {
-                "scene": name,
-                "shapes": problem.shapes,
-                "modes": modes,
-                "seconds": costs,
-                "chosen": choose_rule(problem).rule.name,
-            }
-        )
-    return {"rows": rows}
+    for seed in seeds:
+        spec = random_specs(1, seed)[0]
+        rows.append(_row(f"seed {seed}", build_scene(spec), spec.samplerate, rate))
+    return {"rows": [row for row in rows if row is not None]}
 
 
 def rule_summary(rows: list) -> list:
@@ -127,3 +146,11 @@ def format_rules(result) -> str:
         *_summary_lines(rows),
     ]
     return "\n".join(lines)
+
+
+if __name__ == "__main__":  # python -m benchmarks.rules: the random analysis scenes' choice
+    rows = run_random_rules()["rows"]
+    print(f"{len(rows)} random analysis scenes with a microphone (seeds 5000-5999)")
+    for s in rule_summary(rows):
+        ratio = "-" if s["best_ratio"] is None else f"{s['best_ratio']:.3g} ({s['best_scene']})"
+        print(f"- {s['rule']}: chosen for {len(s['chosen'])}; least ratio {ratio}")

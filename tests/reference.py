@@ -33,7 +33,7 @@ from synth.physics.modes.ritz import (
     solve_class,
 )
 from synth.physics.scene import Plate
-from synth.sound.modal_bank.pulse import grid_size, highest_frequency, transform_workspace
+from synth.sound.modal_bank.pulse import grid_size, transform_workspace
 from synth.sound.modal_bank.transform_kernels import impact_transform
 from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
 
@@ -60,7 +60,7 @@ def pulse_transforms(result, poles, omega_max=None):
     ``|Im p_k|``). A settled contact's remaining weight is not included."""
     poles = np.ascontiguousarray(poles, dtype=complex)
     if omega_max is None:
-        omega_max = highest_frequency(poles)
+        omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
     h, f = pulse_grid(result, omega_max)
     out = np.empty(poles.size, dtype=complex)
     one = np.ones(poles.size)

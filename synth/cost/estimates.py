@@ -121,6 +121,7 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
     hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz) with ``max_points`` (default:
     the sums' own), before any mode is solved (past the Ritz crossover, its Ritz low band
     and edge effect modes counted by :func:`modal_count`)."""
+    from synth.physics.modes import frequency_scale, ritz_band
     from synth.sound import radiation as rad
     from synth.sound.radiation.rules import edge_split, plate_problem
 
@@ -128,7 +129,9 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
     kb = bending_wavenumber(plate, f_max)
     edge = None
     if _crossed(plate, f_max):
-        f_low = _ritz_band_frequency(plate, f_max)
+        # the top of the Ritz low band, Hz: its seam with the edge effect modes lies at or
+        # below it (synth.physics.modes.crossover)
+        f_low = ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
         n_low = modal_count(plate, f_low)
         edge = edge_split(kb, f_low, f_max, n_low, lambda f: modal_count(plate, f), SOUND_SPEED)
     return plate_problem(
@@ -188,14 +191,6 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     return _fitted(choose_rule(problem).counts, modes, terms, budget)
 
 
-def _ritz_band_frequency(plate, f_max: float) -> float:
-    """The top of the Ritz low band of a plate past the crossover, Hz (its seam with the
-    edge effect modes lies at or below it, :mod:`synth.physics.modes.crossover`)."""
-    from synth.physics.modes import frequency_scale, ritz_band
-
-    return ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
-
-
 def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
     """Bytes of the chunks of shape values a microphone's Rayleigh sums hold
     (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule at the
@@ -250,19 +245,13 @@ def estimate(
     series = series_seconds(scene, first, longest, o.max_duration)
     seconds = o.preroll + series + tail_seconds(scene.plate, o.floor_db, o.max_tail)
     samples = int(math.ceil(seconds * o.samplerate))
-    solver = solver_cost(scene.plate, f_max, modes)
     impacts = impact_count(first, speed, scene.gravity, o.max_duration)
-    memory = MemoryParts(
-        audio=AUDIO_BYTES_PER_SAMPLE * samples,
-        impacts=16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
-        pulse=16 * points,
-        solver=solver.solver_bytes,
-        shapes=solver.shapes_bytes,
-        radiation=radiation_bytes(scene.plate, scene.listener, modes, f_max),
-    )
+    memory = {
+        "audio": AUDIO_BYTES_PER_SAMPLE * samples,
+        "impacts": 16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
+        "pulse": 16 * points,
+    }
     return CostEstimate(
-        max_frequency=f_max,
-        modes=modes,
         impact_speed=speed,
         hertz_contact=hertz_contact_time(scene.ball, scene.plate, speed),
         longest_contact=longest,
@@ -270,13 +259,30 @@ def estimate(
         pulse_points=points,
         audio_seconds=seconds,
         audio_samples=samples,
-        memory_bytes=memory.total,
         max_duration=o.max_duration,
+        impacts=impacts,
+        **_stages(scene.plate, scene.listener, modes, f_max, budget, **memory),
+    )
+
+
+def _stages(plate, listener, modes: int, f_max: float, budget: Budget, **memory) -> dict:
+    """The fields a :class:`CostEstimate` and a :class:`BodyCost` share: the cold mode solve,
+    the radiation stage and the memory (``memory`` the audio's, impacts' and pulse's bytes)."""
+    solver = solver_cost(plate, f_max, modes)
+    parts = MemoryParts(
+        **memory,
+        solver=solver.solver_bytes,
+        shapes=solver.shapes_bytes,
+        radiation=radiation_bytes(plate, listener, modes, f_max),
+    )
+    return dict(
+        max_frequency=f_max,
+        modes=modes,
         solver_unknowns=solver.unknowns,
         solver_flops=solver.flops,
-        impacts=impacts,
-        memory=memory,
-        radiation=radiation_work(scene.plate, scene.listener, modes, f_max, budget),
+        radiation=radiation_work(plate, listener, modes, f_max, budget),
+        memory=parts,
+        memory_bytes=parts.total,
     )
 
 
@@ -288,24 +294,11 @@ def body_cost(
     the environment's) sets the radiation rules that fit. Nothing is solved."""
     budget = Budget.from_environment() if budget is None else budget
     modes = modal_count(plate, max_frequency)
-    solver = solver_cost(plate, max_frequency, modes)
-    memory = MemoryParts(
-        audio=0,
-        impacts=16 * modes * (voices + MODE_VALUES),
-        pulse=0,
-        solver=solver.solver_bytes,
-        shapes=solver.shapes_bytes,
-        radiation=radiation_bytes(plate, listener, modes, max_frequency),
+    impacts = 16 * modes * (voices + MODE_VALUES)
+    stages = _stages(
+        plate, listener, modes, max_frequency, budget, audio=0, impacts=impacts, pulse=0
     )
-    return BodyCost(
-        max_frequency=max_frequency,
-        modes=modes,
-        solver_unknowns=solver.unknowns,
-        solver_flops=solver.flops,
-        radiation=radiation_work(plate, listener, modes, max_frequency, budget),
-        memory=memory,
-        memory_bytes=memory.total,
-    )
+    return BodyCost(**stages)
 
 
 def check_body(

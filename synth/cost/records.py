@@ -105,8 +105,6 @@ class Rates:
         """Estimated wall seconds (s) of ``cost``'s cold mode solve and radiation stage: the
         fewest rules the convergence test takes (two) and every rule the budget holds."""
         r = cost.radiation
-        if r.rule == "none":
-            return cost.solver_flops / self.solver, 0.0, 0.0
         rate = self.radiation["rectangle"]  # the work is in rectangle-term equivalents
         fewest = r.work_of(min(2, r.rules))
         return cost.solver_flops / self.solver, fewest / rate, r.work / rate
@@ -192,9 +190,7 @@ class RadiationWork:
 
     def work_of(self, rules: int) -> float:
         """Rectangle-term equivalents of the first ``rules`` rules (and of the work outside
-        the refinement)."""
-        if self.rule == "none":
-            return 0.0
+        the refinement; none for an accelerometer)."""
         return self.fixed_work + float(sum(self.rule_work[:rules]))
 
     @property
@@ -233,25 +229,70 @@ class RadiationWork:
         )
 
 
-class _Checked:
-    """What :class:`CostEstimate` and :class:`BodyCost` share: :meth:`check` of the messages
-    their ``excess(budget)`` gives."""
+#: What to change when a render's arrays are beyond the memory budget.
+RENDER_MEMORY_ADVICE = "lower max_tail, max_duration, max_frequency or the samplerate"
+#: The same for a live body's.
+BODY_MEMORY_ADVICE = "lower the engine's max_frequency or samplerate, or max_voices"
+REST = " (the ball comes to rest)"
+
+
+@dataclass(frozen=True)
+class BodyCost:
+    """What preparing a live body costs (:meth:`synth.Engine.add`), SI units (frequencies Hz,
+    memory bytes): the plate's ``modes``, its cold mode solve (``solver_unknowns`` 0 for
+    closed-form modes), the ``radiation`` stage and the ``memory`` (``memory.impacts``: the
+    voices' states)."""
+
+    max_frequency: float
+    modes: int
+    solver_unknowns: int
+    solver_flops: float
+    radiation: RadiationWork
+    memory: MemoryParts
+    memory_bytes: int
+    #: What the memory message calls the owner of the arrays, and what it says to change.
+    subject = "body"
+    memory_advice = BODY_MEMORY_ADVICE
+
+    def excess(self, budget: Budget) -> list[str]:
+        """What is too big for ``budget``, each with what to change (empty: it fits)."""
+        return self._excess(budget)
 
     def check(self, budget: Budget) -> None:
-        """Raise ``ParameterError`` naming everything ``excess`` finds."""
+        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
         too_big = self.excess(budget)
         if too_big:
             raise ParameterError("refused before any work: " + "; ".join(too_big))
 
+    def _excess(self, budget: Budget, more: list | tuple = ()) -> list[str]:
+        """The messages of the plate's modes, ``more``, the mode solver, the radiation stage
+        and the memory beyond ``budget``."""
+        out = [modes_excess(self.modes, self.max_frequency, budget), *more]
+        if self.solver_flops > budget.max_solver_flops:
+            out.append(
+                f"a cold solve of the plate's modes takes about {self.solver_flops:.3g} "
+                f"floating-point operations ({self.solver_unknowns} unknowns), more than the "
+                f"budget of {budget.max_solver_flops:.3g} (SYNTH_MAX_SOLVER_FLOPS); lower "
+                f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
+                f"modes)"
+            )
+        out.append(self.radiation.excess(self.modes, budget))
+        if self.memory_bytes > budget.max_memory_bytes:
+            out.append(
+                f"the {self.subject}'s largest arrays take about {self.memory_bytes / 2**20:.0f} "
+                f"MiB{_largest_part(self.memory)}, more than the budget of "
+                f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); "
+                f"{self.memory_advice}"
+            )
+        return [m for m in out if m]
+
 
 @dataclass(frozen=True)
-class CostEstimate(_Checked):
-    """The sizes of one render's work (:mod:`synth.cost.estimates`), SI units: frequencies Hz,
-    speeds m/s, times s, memory bytes; ``settles``: the first impact does not separate;
-    ``solver_unknowns`` 0 for closed-form modes."""
+class CostEstimate(BodyCost):
+    """The sizes of one render's work (:mod:`synth.cost.estimates`), those of
+    :class:`BodyCost` and the render's own, SI units: speeds m/s, times s; ``settles``: the
+    first impact does not separate."""
 
-    max_frequency: float
-    modes: int
     impact_speed: float
     hertz_contact: float
     longest_contact: float
@@ -259,15 +300,10 @@ class CostEstimate(_Checked):
     pulse_points: int
     audio_seconds: float
     audio_samples: int
-    memory_bytes: int
     max_duration: float
-    solver_unknowns: int = 0
-    solver_flops: float = 0.0
-    impacts: int = 1
-    memory: MemoryParts | None = None
-    radiation: RadiationWork = RadiationWork()
-    #: What the memory message calls the owner of the arrays.
+    impacts: int
     subject = "render"
+    memory_advice = RENDER_MEMORY_ADVICE
 
     def excess(self, budget: Budget) -> list[str]:
         """What is too big for ``budget`` or for the render itself, each with what to
@@ -280,21 +316,19 @@ class CostEstimate(_Checked):
                 f"max_duration={self.max_duration:g} s (the render could not hold its force "
                 f"pulse); lower ball.mass or use a stiffer or heavier plate"
             )
-        too_many = modes_excess(self.modes, self.max_frequency, budget)
-        if too_many:
-            out.append(too_many)
+        pulse = []
         if self.pulse_points > budget.max_pulse_points:
-            out.append(
+            pulse.append(
                 f"the longest force pulse ({self.longest_contact:.4g} s) needs "
                 f"{self.pulse_points} grid points up to {self.max_frequency:.6g} Hz, more than "
                 f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
                 f"max_frequency or ball.mass"
             )
-        out += _stage_excess(self, budget, RENDER_MEMORY_ADVICE)
-        return out
+        return out + self._excess(budget, pulse)
 
     def rows(self) -> list[tuple[str, str]]:
         """(name, value with unit) rows, for ``synth info --cost``."""
+        parts = ("audio", "impacts", "pulse", "solver", "shapes", "radiation")
         return [
             ("highest frequency", f"{self.max_frequency:.6g} Hz"),
             ("plate modes", f"{self.modes}"),
@@ -310,53 +344,16 @@ class CostEstimate(_Checked):
             ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
             ("impacts (estimated)", f"{self.impacts}"),
             ("memory (largest arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
-        ] + ([] if self.memory is None else [
-            (f"  {name}", f"{getattr(self.memory, name) / 2**20:.1f} MiB")
-            for name in ("audio", "impacts", "pulse", "solver", "shapes", "radiation")
-        ]) + [time_row(self, Rates.load())]  # fmt: skip
-
-
-#: What to change when a render's arrays are beyond the memory budget.
-RENDER_MEMORY_ADVICE = "lower max_tail, max_duration, max_frequency or the samplerate"
-#: The same for a live body's.
-BODY_MEMORY_ADVICE = "lower the engine's max_frequency or samplerate, or max_voices"
-
-
-def _stage_excess(cost, budget: Budget, memory_advice: str) -> list[str]:
-    """What of the mode solver, the radiation stage and the memory of ``cost`` (a
-    :class:`CostEstimate` or a :class:`BodyCost`) is beyond ``budget``, with what to change."""
-    out = []
-    if cost.solver_flops > budget.max_solver_flops:
-        out.append(
-            f"a cold solve of the plate's modes takes about {cost.solver_flops:.3g} "
-            f"floating-point operations ({cost.solver_unknowns} unknowns), more than the "
-            f"budget of {budget.max_solver_flops:.3g} (SYNTH_MAX_SOLVER_FLOPS); lower "
-            f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
-            f"modes)"
-        )
-    too_much = cost.radiation.excess(cost.modes, budget)
-    if too_much:
-        out.append(too_much)
-    if cost.memory_bytes > budget.max_memory_bytes:
-        out.append(
-            f"the {cost.subject}'s largest arrays take about {cost.memory_bytes / 2**20:.0f} MiB"
-            f"{_largest_part(cost.memory)}, more than the budget of "
-            f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); "
-            f"{memory_advice}"
-        )
-    return out
+            *((f"  {name}", f"{getattr(self.memory, name) / 2**20:.1f} MiB") for name in parts),
+            time_row(self, Rates.load()),
+        ]
 
 
 def _largest_part(memory) -> str:
     """`` (most of it the <part>: N MiB)`` for the largest part of ``memory``."""
-    if memory is None:
-        return ""
     parts = vars(memory)
     name = max(parts, key=parts.get)
     return f" (most of it the {name}: {parts[name] / 2**20:.0f} MiB)"
-
-
-REST = " (the ball comes to rest)"
 
 
 @dataclass(frozen=True)
@@ -369,28 +366,3 @@ class SolverCost:
     flops: float
     solver_bytes: int
     shapes_bytes: int
-
-
-@dataclass(frozen=True)
-class BodyCost(_Checked):
-    """What preparing a live body costs (:meth:`synth.Engine.add`), with the fields
-    :class:`CostEstimate` has for it (``memory.impacts``: the voices' states)."""
-
-    max_frequency: float
-    modes: int
-    solver_unknowns: int
-    solver_flops: float
-    radiation: RadiationWork
-    memory: MemoryParts
-    memory_bytes: int
-    #: What the memory message calls the owner of the arrays.
-    subject = "body"
-
-    def excess(self, budget: Budget) -> list[str]:
-        """What is too big for ``budget``, each with what to change (the messages of
-        :meth:`CostEstimate.excess`; empty: the body fits)."""
-        out = []
-        too_many = modes_excess(self.modes, self.max_frequency, budget)
-        if too_many:
-            out.append(too_many)
-        return out + _stage_excess(self, budget, BODY_MEMORY_ADVICE)

@@ -52,23 +52,20 @@ def _budget_named(message, max_points):
     """A warning of the sums stopped at ``max_points`` (the radiation budget's cut) reworded
     to name the setting to change, ``SYNTH_MAX_RADIATION_WORK``; any other as it is."""
     internal = f"the next rule would exceed max_points={max_points}"
-    text = str(message)
-    if internal not in text:
+    if internal not in str(message):
         return message
-    return type(message)(
-        text.replace(
-            internal,
-            "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise "
-            "it for converged gains; synth info --cost prints the work)",
-        )
+    budget = (
+        "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise it "
+        "for converged gains; synth info --cost prints the work)"
     )
+    return type(message)(str(message).replace(internal, budget))
 
 
 def nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
-    from synth.sound.radiation.common import nearest_distance as to_rectangle
+    from synth.sound.radiation.common import distance_range
 
-    return to_rectangle((plate.length, plate.width), microphone.position)
+    return distance_range((plate.length, plate.width), microphone.position)[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,26 +89,20 @@ def _listener_output(modes, listener, poles, ok, max_points=None) -> ListenerOut
     if isinstance(listener, Accelerometer):
         phip = modes.shapes(np.array([listener.position]))[0][ok]
         return ListenerOutput(phip * poles**2, phip, 0.0, LISTENER_UNITS[Accelerometer])
-    sigma, omega, wd = _mode_rates(modes)
-    k_max = _max_wavenumber(modes.plate, omega[ok])
-    s = _sum_poles(sigma, omega, wd, ok)
+    s, k_max = _sum_poles(modes, ok)
     all_gains = _microphone_gains(modes, modes.plate, listener, s, k_max, max_points)
     return _pressure_output(all_gains, poles, ok, modes.plate, listener)
 
 
-def _sum_poles(sigma, omega, wd, ok):
-    """The poles ``s_k`` (rad/s) the radiation sums take for every mode: a mode left out
-    (``ok`` False) takes ``-omega_k`` (its gain unused; its own ``-sigma_k`` can be of any
-    size, and the sums' panels follow the largest ``|s|``)."""
-    return np.where(ok, -sigma + 1j * wd, -omega + 0j)
-
-
-def _max_wavenumber(plate, omega) -> float:
-    """The largest bending wavenumber (rad/m) of modes of angular frequencies ``omega``
-    (rad/s; 1 for none): ``(omega^2 rho h / D)^(1/4)``."""
-    if omega.size == 0:
-        return 1.0
-    return (float(np.max(omega)) ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
+def _sum_poles(modes, ok) -> tuple[np.ndarray, float]:
+    """The poles ``s_k`` (rad/s) the radiation sums take for every mode, a mode left out
+    (``ok`` False) ``-omega_k`` (its gain unused; its own ``-sigma_k`` can be of any size, and
+    the sums' panels follow the largest ``|s|``); and the largest bending wavenumber (rad/m)
+    of the modes ``ok``, ``(omega^2 rho h / D)^(1/4)`` (1 for none)."""
+    sigma, omega, wd = _mode_rates(modes)
+    plate, w = modes.plate, omega[ok]
+    k4 = float(np.max(w)) ** 2 * plate.surface_density / plate.flexural_rigidity if w.size else 1.0
+    return np.where(ok, -sigma + 1j * wd, -omega + 0j), k4**0.25
 
 
 def _pressure_output(all_gains, poles, ok, plate, microphone) -> ListenerOutput:
@@ -172,10 +163,9 @@ class ModalModel:
         plate, ok = self.modes.plate, self.rendered
         microphone = isinstance(listener, Microphone)
         if microphone and grid is not None and grid.serves(listener.position):
-            sigma, _, wd = _mode_rates(self.modes)
-            poles = -sigma + 1j * wd
+            s = _sum_poles(self.modes, ok)[0]
             h = grid.gains(listener.position, nearest_distance(plate, listener))
-            output = _pressure_output(h * poles / -np.conj(poles), self.poles, ok, plate, listener)
+            output = _pressure_output(h * s / -np.conj(s), self.poles, ok, plate, listener)
         else:
             output = _listener_output(self.modes, listener, self.poles, ok)
         return dataclasses.replace(self, listener=output)
@@ -249,11 +239,11 @@ def listener_grid(model: ModalModel, max_bytes: int | None = None):
     alone (:class:`~synth.sound.radiation.fixed.GridTooLarge` beyond ``max_bytes``)."""
     from synth.sound.radiation.fixed import ListenerGrid
 
-    sigma, omega, wd = _mode_rates(model.modes)
+    s, k_max = _sum_poles(model.modes, model.rendered)
     return ListenerGrid(
         model.modes,
-        -np.conj(_sum_poles(sigma, omega, wd, model.rendered)),
-        max_wavenumber=_max_wavenumber(model.modes.plate, omega[model.rendered]),
+        -np.conj(s),
+        max_wavenumber=k_max,
         air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED,
         max_bytes=max_bytes,

@@ -41,22 +41,15 @@ MAX_IMPACTS = 100_000
 _option = checks.option
 
 
-def _choice(name, value, checked) -> str:
-    checks.choice(name, value, NORMALIZE)
-    return value
-
-
 def _negative_db(unit: str, least: float | None = None, closed: bool = False, why: str = ""):
-    """The check of a level below 0 (``<= 0`` when ``closed``), at least ``least``."""
-    top = "<= 0" if closed else "< 0"
+    """The check of a level below 0, or in ``[least, 0)`` (``[least, 0]`` when ``closed``)."""
 
     def check(name, value, checked) -> float:
-        x = checks.real(name, value, unit, top)
-        if not (x <= 0.0 if closed else x < 0.0):
-            raise ParameterError(f"{name}={value!r} must be {top} ({unit}{why})")
-        if least is not None and x < least:
-            right = "]" if closed else ")"
-            raise ParameterError(f"{name}={value!r} must be in [{least:g}, 0{right} ({unit})")
+        if least is not None:
+            return checks.in_range(name, value, least, 0.0, unit, lo_open=False, hi_open=not closed)
+        x = checks.real(name, value, unit, "< 0")
+        if not x < 0.0:
+            raise ParameterError(f"{name}={value!r} must be < 0 ({unit}{why})")
         return x
 
     return check
@@ -79,12 +72,7 @@ def _seconds(hi: float, lo_open: bool = True):
     """The check of a time in s: in (0, hi], or [0, hi] unless ``lo_open``."""
 
     def check(name, value, checked) -> float:
-        if lo_open:
-            return checks.positive_at_most(name, value, hi, "s")
-        x = checks.nonnegative(name, value, "s")
-        if x > hi:
-            raise ParameterError(f"{name}={value!r} must be >= 0 and <= {hi:g} (s)")
-        return x
+        return checks.in_range(name, value, 0.0, hi, "s", lo_open=lo_open, hi_open=False)
 
     return check
 
@@ -116,7 +104,8 @@ class RenderOptions:
         allowed=f"an integer in [{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]",
     )  # fmt: skip
     normalize: str = _option(
-        "peak", unit="", metavar="MODE", check=_choice, choices=NORMALIZE,
+        "peak", unit="", metavar="MODE", choices=NORMALIZE,
+        check=lambda name, value, checked: checks.choice(name, value, NORMALIZE),
         allowed=", ".join(NORMALIZE),
         doc="level: peak (to peak_db dBFS), loudness (to loudness_lufs LUFS, needs "
         "pyloudnorm), physical (1000 Pa or 10 000 m/s^2 full scale), none (Pa or m/s^2; a "

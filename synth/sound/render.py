@@ -150,12 +150,9 @@ def _heard_modes(scene, o: RenderOptions, radiation_max_points=None) -> ModalMod
     """The plate's modes heard by the scene's listener; none ringing in the band (a silent
     render) is refused."""
     fs, f_max = o.samplerate, o.top_frequency
+    points = radiation_max_points
     model = modal_model(
-        scene.plate,
-        scene.listener,
-        samplerate=fs,
-        max_frequency=f_max,
-        radiation_max_points=radiation_max_points,
+        scene.plate, scene.listener, samplerate=fs, max_frequency=f_max, radiation_max_points=points
     )
     if not model.poles.size:
         raise ParameterError(_silent_plate_message(f_max, fs, scene.plate, model.n_overdamped))
@@ -286,17 +283,15 @@ def check_sequence(scene, sequence) -> BounceSequence:
     modal plate in the contact (an impact depends on the ringing before it) the first impact's
     contact law is checked instead."""
     from synth.physics import contact
+    from synth.physics.plate_choice import scene_plate
 
     if not isinstance(sequence, BounceSequence):
         raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
     if not len(sequence):
         raise ParameterError("sequence has no impacts: there is nothing to render")
-    first = sequence[0]
-    from synth.physics.plate_choice import scene_plate
-
-    c = scene.contact
     if scene_plate(scene).plate == "modal":
         return _check_modal_sequence(scene, sequence)
+    first, c = sequence[0], scene.contact
     own = contact.solve_impact(
         scene.ball,
         scene.plate,
@@ -329,11 +324,9 @@ def _check_modal_sequence(scene, sequence) -> BounceSequence:
     law = contact_parameters(scene.ball, scene.plate, c.law, **c.options())
     want = (law.stiffness, law.exponent, law.dissipation, law.viscous_time)
     fields = ("stiffness", "exponent", "dissipation", "viscous_time")
-    got = None
-    if isinstance(result, ModalImpactResult):
-        got = tuple(getattr(result, f"law_{name}") for name in fields)
-    if got is None or not all(
-        abs(a - b) <= SEQUENCE_RTOL * abs(b) for a, b in zip(got, want, strict=True)
+    if not isinstance(result, ModalImpactResult) or not all(
+        abs(getattr(result, f"law_{name}") - b) <= SEQUENCE_RTOL * abs(b)
+        for name, b in zip(fields, want)
     ):
         K, n, mu, A = want
         raise ParameterError(

@@ -76,10 +76,10 @@ def path_excitation(
     if not s1 >= s0:
         raise ParameterError(f"stop={stop!r} must be >= start={start!r} (metres)")
     ds = table_step(model) if step is None else checks.positive("step", step, "metres")
-    rows = max(2, int(math.ceil((s1 - s0) / ds)) + 1) if ds > 0.0 else 2
+    rows = max(2, int(math.ceil((s1 - s0) / ds)) + 1)
     ds = (s1 - s0) / (rows - 1) if s1 > s0 else 1.0
     s = s0 + ds * np.arange(rows)
-    s[-1] = max(s1, s0)  # the table ends exactly at the path's last point
+    s[-1] = s1  # the table ends exactly at the path's last point
     points = np.column_stack((ox + ux * s, oy + uy * s))
     masses = np.asarray(model.modes.modal_masses, dtype=float)[model.rendered]
     b = np.ascontiguousarray(model.modes.shapes(points)[:, model.rendered] / masses)
@@ -171,51 +171,35 @@ def drive_modes(
         zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
     if state is not None:
         zeta, F_pre = np.array(state.zeta, dtype=complex), float(state.previous)
+
+    def ring(modes, gain, w, direct, out):
+        """:func:`_drive` of the modes of the mask ``modes`` into ``out``: the ``gain`` ``g_k``
+        of a unit drive ``b_k F`` and the state ``w_k`` (heard: ``Re w_k``) of those modes;
+        returns their final ``w_k``."""
+        wr, wi = np.ascontiguousarray(w.real), np.ascontiguousarray(w.imag)
+        e = ringing[modes]
+        _drive(
+            F, c, float(path.start), float(path.step),
+            np.ascontiguousarray(path.excitation[:, modes]),
+            np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
+            np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
+            np.ascontiguousarray(gain.real), np.ascontiguousarray(gain.imag), wr, wi, F_pre, out,
+        )  # fmt: skip
+        return wr + 1j * wi
+
     # the modes the listener hears, as heard: w_k = l_k zeta_k (l_k its response)
     heard = listener != 0.0
-    every = bool(np.all(heard))
-    table = path.excitation if every else path.excitation[:, heard]
     # the direct term's sum over the modes at each row: interpolated as the rows are
     direct = None if path.direct is None else np.sum(path.direct, axis=1)
     l_heard = listener[heard]
-    modes = _Heard(ringing[heard], l_heard * hold[heard], l_heard * zeta[heard])
-    zeta[heard] = _ring(F, c, path, table, direct, modes, F_pre, audio) / l_heard
+    zeta[heard] = ring(heard, l_heard * hold[heard], l_heard * zeta[heard], direct, audio) / l_heard
     if state is not None:
-        if not every:
-            # the modes nobody hears: their state alone, as they are (l_k = 1)
-            silent = ~heard
-            modes = _Heard(ringing[silent], hold[silent], zeta[silent])
-            zeta[silent] = _ring(
-                F, c, path, path.excitation[:, silent], None, modes, F_pre, np.zeros(F.size)
-            )
+        silent = ~heard
+        if silent.any():  # the modes nobody hears: their state alone, as they are (l_k = 1)
+            zeta[silent] = ring(silent, hold[silent], zeta[silent], None, np.zeros(F.size))
         state.zeta = zeta
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
-
-
-@dataclass
-class _Heard:
-    """Modes as heard, for :func:`_drive` (complex (K,) each): one sample's ``ringing`` ``e_k``,
-    the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the ``state`` ``w_k`` (heard: ``Re w_k``)."""
-
-    ringing: np.ndarray
-    gain: np.ndarray
-    state: np.ndarray
-
-
-def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
-    """:func:`_drive` of ``modes`` (``table``: their ``b_k``) into ``out``; returns the final
-    ``w_k``."""
-    wr = np.ascontiguousarray(modes.state.real)
-    wi = np.ascontiguousarray(modes.state.imag)
-    e, g = modes.ringing, modes.gain
-    _drive(
-        force, coordinate, float(path.start), float(path.step), np.ascontiguousarray(table),
-        np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
-        np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
-        np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag), wr, wi, previous, out,
-    )  # fmt: skip
-    return wr + 1j * wi
 
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,

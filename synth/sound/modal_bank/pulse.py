@@ -39,12 +39,6 @@ class BankCoefficients:
     step_im: np.ndarray
 
 
-def highest_frequency(poles: np.ndarray) -> float:
-    """The largest ``|Im p_k|`` of the ``poles`` (rad/s; 0 for none): the frequency the
-    pulse grid must resolve."""
-    return float(np.max(np.abs(poles.imag))) if poles.size else 0.0
-
-
 def response_per_transform(poles, excitation, output) -> np.ndarray:
     """The listener's response ``-i b_k output_k / omega_dk`` per unit pulse transform of modes
     with ``poles`` (rad/s) and ``excitation`` ``b_k`` (1/kg)."""
@@ -57,7 +51,7 @@ def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients
     :func:`~synth.sound.modal_bank.synthesize`), at ``samplerate`` Hz."""
     fs = float(samplerate)
     poles = np.ascontiguousarray(poles, dtype=complex)
-    omega_max = highest_frequency(poles)
+    omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
     sigma_max = float(np.max(-poles.real)) if poles.size else 0.0
     coef = response_per_transform(poles, excitation, output)
     step = np.exp(poles * (1.0 / fs))  # one sample's ringing

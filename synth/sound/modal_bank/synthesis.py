@@ -115,12 +115,8 @@ def synthesize(
 def _add_contacts(out, contact_samples, direct, last: int) -> int:
     """Add each impact's response inside its contact (and an accelerometer's ``direct``
     term) to ``out``; the end of what is written, ``last`` or later."""
-    if direct is None:
-        mass_lines = np.zeros(len(contact_samples))
-    else:
-        mass_lines = np.broadcast_to(
-            np.sum(np.asarray(direct).real, axis=-1), (len(contact_samples),)
-        )
+    line = 0.0 if direct is None else np.sum(np.asarray(direct).real, axis=-1)
+    mass_lines = np.broadcast_to(line, (len(contact_samples),))
     for (idx, resp, off_f), mass_line in zip(contact_samples, mass_lines):
         ok = idx < out.size
         if not ok.any():

@@ -146,11 +146,6 @@ def distance_range(size, listener) -> tuple[float, float]:
     return r_min, r_max
 
 
-def nearest_distance(size, listener) -> float:
-    """Distance (m) from ``listener`` (x, y, z) to the nearest point of the plate."""
-    return distance_range(size, listener)[0]
-
-
 def check_finite(values, what: str, modes=None) -> None:
     """A ParameterError ``what`` naming the first mode (index in ``modes``) whose sum is not
     finite."""
@@ -407,23 +402,18 @@ def refine(rule, npoints, factor, scale, tol, max_points, panels, selective=Fals
 
 
 def gains_of(result: RadiationResult, caller: str, tol: float, full_output: bool):
-    """``result`` if ``full_output``, else its gains, with :func:`warn_unconverged` if the
-    convergence test failed."""
+    """``result`` if ``full_output``, else its gains; if the convergence test failed, with a
+    RuntimeWarning naming the mode furthest from it (at the caller of ``caller``, the public
+    function calling this)."""
     if full_output:
         return result
     if not result.success:
-        warn_unconverged(caller, result, tol)
+        allowed = tol * np.maximum(np.abs(result.gains), COHERENT_FLOOR * result.coherent)
+        worst = int(np.argmax(result.error / np.maximum(allowed, 1e-300)))
+        warnings.warn(
+            f"{caller}: {result.message} (mode {worst}: estimated error "
+            f"{result.error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
+            RuntimeWarning,
+            stacklevel=3,
+        )
     return result.gains
-
-
-def warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
-    """RuntimeWarning naming the mode furthest from the convergence test (at the caller of
-    the public function calling :func:`gains_of`)."""
-    allowed = tol * np.maximum(np.abs(result.gains), COHERENT_FLOOR * result.coherent)
-    worst = int(np.argmax(result.error / np.maximum(allowed, 1e-300)))
-    warnings.warn(
-        f"{caller}: {result.message} (mode {worst}: estimated error "
-        f"{result.error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
-        RuntimeWarning,
-        stacklevel=4,
-    )

@@ -312,10 +312,19 @@ def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarS
     return _PolarSetup(size, listener, q_s, checked, q, tol_panel, panels, orders, r_mid, halvings)
 
 
-def _polar_gains(in_phase, apply, shapes, n_modes, listener_position, s, settings):
-    """The :class:`RadiationResult` of ``shapes`` by a polar rule, each mode refined alone:
-    ``in_phase(shapes, setup)`` the modes' in-phase integrals, ``apply`` its sums (as
-    :func:`_apply_separable_rule`); and the checked tolerance."""
+def _polar_gains(caller, shapes, listener_position, s, settings):
+    """The :class:`RadiationResult` of :func:`separable_gains` or :func:`summed_gains`
+    (``caller``) and the checked tolerance: each mode refined alone, the in-phase integrals
+    on :func:`~.rectangle.in_phase_grid`."""
+    from synth.physics.modes import SeparableShapes, SummedShapes
+
+    kind = SeparableShapes if caller == "separable_gains" else SummedShapes
+    if not isinstance(shapes, kind):
+        raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.{kind.__name__}")
+    if kind is SeparableShapes:
+        n_modes, in_phase, apply = shapes.x_index.size, _separable_in_phase, _apply_separable_rule
+    else:
+        n_modes, in_phase, apply = shapes.n_modes, _summed_in_phase, _apply_summed_rule
     setup = _polar_setup((shapes.length, shapes.width), n_modes, listener_position, s, settings)
     checked = setup.settings
     if setup.q.size == 0:
@@ -348,12 +357,7 @@ def separable_gains(shapes, listener_position, s, *, full_output=False, **settin
     about the microphone: the same integral, keywords (``max_wavenumber`` bounding every
     shape's, rad/m; ``max_points`` the points of one rule), tolerance, convergence test and
     result (``rule`` "polar", ``panels``: the radial panels and 0)."""
-    from synth.physics.modes import SeparableShapes
-
-    if not isinstance(shapes, SeparableShapes):
-        raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
-    result, tol = _polar_gains(_separable_in_phase, _apply_separable_rule, shapes,
-                               shapes.x_index.size, listener_position, s, settings)  # fmt: skip
+    result, tol = _polar_gains("separable_gains", shapes, listener_position, s, settings)
     return gains_of(result, "separable_gains", tol, full_output)
 
 
@@ -361,10 +365,5 @@ def summed_gains(shapes, listener_position, s, *, full_output=False, **settings)
     """:func:`separable_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)`` (``shapes``, a
     :class:`synth.physics.modes.SummedShapes` with the plate's size): about ``N_theta n_x n_y
     + N_r n_basis n_modes / 4`` multiply-adds and ``N_r n_modes`` exponentials per rule."""
-    from synth.physics.modes import SummedShapes
-
-    if not isinstance(shapes, SummedShapes):
-        raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
-    result, tol = _polar_gains(_summed_in_phase, _apply_summed_rule, shapes, shapes.n_modes,
-                               listener_position, s, settings)  # fmt: skip
+    result, tol = _polar_gains("summed_gains", shapes, listener_position, s, settings)
     return gains_of(result, "summed_gains", tol, full_output)

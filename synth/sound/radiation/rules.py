@@ -50,6 +50,8 @@ POLAR_RADIAL_TERMS = 2
 #: The measured rates of the estimate's work, shipped with the package (``synth bench cost
 #: --record``): the mode solver's and each radiation rule's (terms per second, by name).
 RATES = Path(__file__).parents[2] / "cost_rates.json"
+#: Each rule's orders relative to the first rule's.
+LEVELS = [REFINE**level for level in range(MAX_RULES)]
 
 
 @dataclass(frozen=True)
@@ -89,16 +91,12 @@ def weighted_counts(counts: RuleWork) -> RuleWork:
     )
 
 
-def _levels():
-    return [REFINE**level for level in range(MAX_RULES)]
-
-
 def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
     """The rectangle rule's work at the wavenumber ``kappa`` (rad/m) for ``modes`` modes
     whose shape values cost ``terms``: the points of its tensor grid, each rule's orders
     ``REFINE^l`` times the first rule's."""
     _, _, px, py = first_rule(size[0], size[1], listener, kappa, tol_panel)
-    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in _levels()]
+    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in LEVELS]
     work = [float(n) * modes * (1 + terms) for n in points]
     return RuleWork("rectangle", tuple(points), tuple(work), 0.0, "points")
 
@@ -109,7 +107,7 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     edges = (*size, listener[0], listener[1])
     panels, orders = radial_rule(size, listener, kb, qa, tol_panel)
     out = []
-    for f in _levels():
+    for f in LEVELS:
         radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
         angular = 0
         for r in map(float, radii):
@@ -117,27 +115,6 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
             angular += sum(n * p for _, _, n, p in arc_panels(r, kb, tol_panel, f, arcs))
         out.append((radii.size, angular))
     return out
-
-
-def polar_work(p: Problem, summed: bool) -> RuleWork:
-    """The polar rule's work for the separable modes of ``p`` (``p.factors`` their factors
-    along x and y); with ``summed`` the summed rule's (Ritz modes of ``p.basis``
-    coefficients, shape values of ``p.terms`` terms)."""
-    modes, (n_x, n_y) = p.modes, p.factors
-    grid = _polar_grid(p.size, p.listener, p.kb, p.qa, p.tol_panel, shorter=not summed)
-    radial = p.basis + 1 if summed else POLAR_RADIAL_TERMS
-    work = [
-        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * radial
-        for radii, angular in grid
-    ]
-    in_phase = in_phase_grid(p.size, p.listener, p.kb, p.tol_panel)
-    xs, ys = in_phase.xs.size, in_phase.ys.size
-    if summed:
-        fixed = float(xs * ys) * modes * (1 + p.terms)
-    else:
-        fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
-    name = "summed" if summed else "polar"
-    return RuleWork(name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
 
 
 @dataclass(frozen=True)
@@ -197,13 +174,9 @@ class Estimate:
     counts: RuleWork
     fits: bool
     cost: float
-    tol: float
-
-    @property
-    def error_bound(self) -> float:
-        """The bound of each gain's relative error the convergence test holds: ``tol``
-        where the check rule fits, else none (inf)."""
-        return self.tol if self.fits else math.inf
+    #: The bound of each gain's relative error the convergence test holds: ``tol`` where the
+    #: check rule fits, else none (inf).
+    error_bound: float
 
 
 class Rule:
@@ -222,7 +195,8 @@ class Rule:
         counts = self.counts(problem)
         weighted = weighted_counts(counts)
         cost = weighted.fixed + sum(weighted.work[:2])
-        return Estimate(self, counts, counts.points[1] <= problem.max_points, cost, problem.tol)
+        fits = counts.points[1] <= problem.max_points
+        return Estimate(self, counts, fits, cost, problem.tol if fits else math.inf)
 
 
 class RectangleRule(Rule):
@@ -248,7 +222,19 @@ class PolarRule(Rule):
     name, shapes, summed = "polar", ("separable",), False
 
     def counts(self, p):
-        return polar_work(p, summed=self.summed)
+        """The angular sums (shared by every mode) over the factors along x and y, and per
+        radius and mode the radial terms; outside the refinement the in-phase bounds."""
+        (n_x, n_y), summed = p.factors, self.summed
+        grid = _polar_grid(p.size, p.listener, p.kb, p.qa, p.tol_panel, shorter=not summed)
+        radial = p.basis + 1 if summed else POLAR_RADIAL_TERMS
+        work = [float(a) * (n_x + n_y + n_x * n_y) + float(r) * p.modes * radial for r, a in grid]
+        in_phase = in_phase_grid(p.size, p.listener, p.kb, p.tol_panel)
+        xs, ys = in_phase.xs.size, in_phase.ys.size
+        if summed:
+            fixed = float(xs * ys) * p.modes * (1 + p.terms)
+        else:
+            fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
+        return RuleWork(self.name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
 
     def gains(self, modes, listener, s, settings):
         if self.summed:
@@ -323,8 +309,8 @@ def choose_rule(problem: Problem) -> Estimate:
 
 
 @functools.lru_cache(maxsize=256)  # warm renders choose again for every cached gain
-def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
-    estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
+def _cheapest(problem: Problem, rules: tuple) -> Estimate:
+    estimates = [rule.estimate(problem) for rule in rules if rule.applies(problem)]
     holding = [e for e in estimates if e.error_bound <= problem.tol]
     if holding:
         return min(holding, key=lambda e: e.cost)
