@@ -239,6 +239,29 @@ def test_cache_key_changes_with_listener_and_plate(tmp_path):
     assert R.cache_info()["computations"] == 10
 
 
+def test_cache_does_not_serve_an_entry_of_edited_radiation_code(tmp_path, monkeypatch):
+    # An entry computed while the radiation's sources read as edited (another digest of
+    # them and all they import), as another revision with the same version numbers leaves
+    # one: recomputed, not served, whatever it holds.
+    m = _modes()
+    base = _gains(m)
+    (path,) = _files(tmp_path)
+    with monkeypatch.context() as edited:
+        edited.setattr(radiation_cache, "source_digest", lambda path: f"edited {path}")
+        R.clear_memory_cache()
+        _gains(m)
+    assert R.cache_info()["computations"] == 1, "the edited code's key is another entry"
+    for entry in _files(tmp_path):
+        if entry != path:  # the edited code's entry: other values under its own key
+            with np.load(entry) as z:
+                arrays = {name: z[name] for name in z.files}
+            arrays["gains"] = arrays["gains"] * (1.0 + 1e-12)
+            np.savez(entry, **arrays)
+    R.clear_memory_cache()
+    np.testing.assert_array_equal(_gains(m), base)
+    assert R.cache_info()["disk_hits"] == 1
+
+
 def test_cache_key_changes_with_listener_and_plate_rejects_bad_listener():
     with pytest.raises(ParameterError, match="listener_position"):
         _gains(_modes(), listener=(0.1, 0.05, -0.2))

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.jitcache import source_digest
 from synth.sound.radiation.common import (
     COHERENT_FLOOR,
     GRADING,
@@ -37,7 +38,8 @@ clear_memory_cache = CACHE.clear
 def gains_key(modes, listener, s, settings, rule) -> str:
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
     (``settings`` the checked :class:`~.common.Settings`, ``rule`` the name of the rule's
-    class, :mod:`~synth.sound.radiation.rules`)."""
+    class, :mod:`~synth.sound.radiation.rules`), with the digest of the radiation's sources
+    and all they import: an entry written by edited code is recomputed, not served."""
 
     def hexed(value):
         return None if value is None else float(value).hex()
@@ -52,6 +54,7 @@ def gains_key(modes, listener, s, settings, rule) -> str:
             "sound_speed": hexed(settings.c), "reference_distance": hexed(settings.r0),
             "tol": hexed(settings.tol), "max_points": int(settings.max_points),
             "quadrature": [MAX_ORDER, REFINE, MAX_RULES, GRADING, NEAR_RHO, COHERENT_FLOOR],
+            "code": source_digest(str(Path(__file__).with_name("__init__.py"))),
         },
         sort_keys=True,
     )  # fmt: skip
