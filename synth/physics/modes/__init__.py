@@ -105,7 +105,8 @@ class Modes:
             return True
         if isinstance(sol, RitzSolution):
             return sol.omega_max == dimensionless_band(self.plate, self.max_frequency)
-        return False  # a hybrid's low Ritz band may itself be a wider band's
+        # a hybrid: its Ritz part solved for exactly the low band this band asks for
+        return sol.ritz.omega_max == ritz_band(self.plate, self.max_frequency)
 
     def separable(self) -> SeparableShapes | None:
         """The shapes as products ``X_i(x) Y_j(y)`` (simply supported plates), else None."""
