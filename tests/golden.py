@@ -60,3 +60,12 @@ def rounding_horizon(audio: np.ndarray, moved: np.ndarray, bound: float) -> int 
     if beyond.size == 0:
         return None if a.size == b.size else n
     return int(beyond[0])
+
+
+def recorded_renders() -> dict:
+    """tests/data/preset_renders.json: each preset's recorded render (samples or its rounding
+    horizon, sketch, ticks)."""
+    import json
+    from pathlib import Path
+
+    return json.loads((Path(__file__).parent / "data" / "preset_renders.json").read_text())

@@ -22,17 +22,14 @@ its analysis are the session's shared run of the preset (tests/conftest.py), whi
 trip reads too.
 """
 
-import json
-from pathlib import Path
-
 import numpy as np
 import pytest
-from golden import MAX_RELATIVE_ERROR, relative_error
+from golden import MAX_RELATIVE_ERROR, recorded_renders, relative_error
 
 import synth
 import synth.io.presets
 
-RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").read_text())
+RECORDED = recorded_renders()
 #: s: the largest shift of a tick's onset (float rounding moves the interpolated onsets by a
 #: few tens of ns).
 MAX_TICK_SHIFT = 100e-9
@@ -57,6 +54,10 @@ UNSTABLE_TICK_SHIFT = {
     # and 119 us (the true onsets 16.6 us and 101 us away) with rounding-level changes of
     # the resonator's factor (LAPACK's Cholesky against the generalized Schur algorithm)
     "steel-ball-on-steel-sheet": 0.2e-3,
+    # the first onset, 5 ms into the file, moves by 32 us (1.5 samples) and others by up to
+    # 2.4 us on another machine (another CPU and the BLAS kernels chosen for it), with the
+    # waveform within 1e-6 of its recording
+    "marble-rolling-on-wooden-floor": 0.2e-3,
 }
 
 
