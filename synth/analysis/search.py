@@ -18,6 +18,7 @@ from synth.analysis.measures import (
     with_standing_out,
 )
 from synth.analysis.options import MAX_ORDER
+from synth.analysis.residual import residual_ticks
 from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.ringing import ringing_explained
 from synth.analysis.series import bounce_order
@@ -89,7 +90,45 @@ def measured_ticks(
         with one_blas_thread():
             ticks = [meter.tick(i) for i in range(len(found))]
         dropped = set(not_impacts(ticks, test))
+    if resonator:
+        meter, ticks = _with_residual_ticks(x, meter, ticks, settings, innovation, test)
     return without_spurious_end(ticks, x.size / fs, settings.window / fs)
+
+
+def _with_residual_ticks(
+    x: np.ndarray,
+    meter: TickMeter,
+    ticks: list,
+    settings: Settings,
+    innovation: float,
+    test: RiseTest,
+) -> tuple[TickMeter, list]:
+    """Step 10: ``meter`` and its ``ticks`` with the impacts the ringing's residual shows
+    (:func:`~synth.analysis.residual.residual_ticks`); a new tick that step 9 or the
+    non-impacts' rule drops is left out, the others measured again without it."""
+    onsets = np.array([f.onset for f in meter.found])
+    if onsets.size == 0:
+        return meter, ticks
+    rises = residual_ticks(x, onsets, settings, innovation)
+    added = [
+        FoundTick(r.onset, r.strength, None, 0, r.onset)
+        for r in rises
+        if np.abs(onsets - r.onset).min() >= settings.min_separation
+    ]
+    while added:
+        found = sorted(meter.found + added, key=lambda f: f.onset)
+        trial = TickMeter(x, found, meter.whitenings, settings, meter.noise)
+        with one_blas_thread():
+            measured = [trial.tick(i) for i in range(len(found))]
+        new = {i for i, f in enumerate(found) if any(f is g for g in added)}
+        dropped = new & (
+            set(not_impacts(measured, test))
+            | set(ringing_ticks(x, measured, found, settings, innovation))
+        )
+        if not dropped:
+            return trial, measured
+        added = [f for i, f in enumerate(found) if i in new and i not in dropped]
+    return meter, ticks
 
 
 def tick_meter(

@@ -1,0 +1,156 @@
+"""Step 10 (docs/analysis.md): impacts the earlier steps missed, sought in the recording less the
+ringing its own past predicts. Between two ticks the recording is the plate's free ringing; the
+modes fitted to the stretch after a tick (Prony's method, as step 9) predict each sample from the
+ones before, so what the prediction leaves is what no past ringing explains: an impact a few
+milliseconds after the last stands out of that residual, not under the ringing's level. Positions
+in samples."""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.analysis.detection import (
+    ONSET_NOISE_SIGMAS,
+    STANDS_OUT_BEFORE,
+    STANDS_OUT_SPAN,
+    OnsetWalk,
+    frame_energies,
+    refine_onset,
+)
+from synth.analysis.ringing import RINGING_FIT, ringing_predictor
+from synth.analysis.settings import Settings
+
+#: The free ringing after a tick starts this long after its onset, s: past the longest contact
+#: of a series (a slow ball on a soft board, about 0.5 ms) and its whitened transients (as
+#: step 7's and step 9's fits).
+FREE_GUARD = 0.002
+#: The shortest stretch of free ringing a predictor is fitted over, s: a chatter's next impact
+#: may follow its contact by 3 ms; a predictor of a third of its samples models the strongest
+#: modes there (7 modes at 44.1 kHz), the longer fit (:data:`~synth.analysis.ringing.RINGING_FIT`)
+#: the rest of the gap.
+SHORT_FIT = 0.001
+#: Seconds of white-noise prediction error over which the test passes once by chance: it is
+#: made at every hop of every gap, so its false-alarm probability per position is the hop over
+#: this (2.5e-7 at the default hop), where step 8's one test per burst may pass once in 1.6e4.
+FALSE_ALARM_SPAN = 1000.0
+
+
+@dataclass(frozen=True)
+class Rise:
+    """A burst of the residual: its onset (samples of the recording) and its rise (dB) over the
+    residual before it, less the F quantile white noise exceeds once in
+    :data:`FALSE_ALARM_SPAN`."""
+
+    onset: float
+    strength: float
+
+
+def residual_ticks(
+    x: np.ndarray, onsets: np.ndarray, settings: Settings, innovation: float
+) -> list[Rise]:
+    """The bursts of ``x`` between the ticks at ``onsets`` (samples, in time order) and after the
+    last, each at least ``min_separation`` from every tick, that the ringing predicted from the
+    free stretch after the tick before does not explain (:func:`first_rise`); each found starts
+    a new free stretch. Linear in the recording's length: one or two fits per tick found."""
+    out: list[Rise] = []
+    sep = settings.min_separation
+    ends = list(np.asarray(onsets[1:], dtype=float) - sep) + [float(x.size)]
+    for a, stop in zip(np.asarray(onsets, dtype=float), ends):
+        start = float(a)
+        while True:
+            rise = first_rise(x, start, int(math.floor(stop)), settings, innovation)
+            if rise is None or rise.onset - start < sep:
+                break
+            out.append(rise)
+            start = rise.onset
+    return out
+
+
+def first_rise(
+    x: np.ndarray, onset: float, stop: int, s: Settings, innovation: float
+) -> Rise | None:
+    """The first burst of ``x`` before ``stop`` in the prediction error of the ringing free from
+    :data:`FREE_GUARD` after ``onset``: over a predictor of :data:`SHORT_FIT` up to where the
+    predictor of :data:`~synth.analysis.ringing.RINGING_FIT` is tested, then over that one."""
+    fs = s.samplerate
+    start = int(math.floor(onset)) + int(round(FREE_GUARD * fs))
+    short = max(1, int(round(SHORT_FIT * fs)))
+    full = max(short, int(round(RINGING_FIT * fs)))
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    handover = start + full + span  # where the longer fit's test begins
+    for n, limit in ((short, handover), (full, stop)):
+        rise = _rise_after(x, start, start + n, min(limit, stop), s, innovation)
+        if rise is not None:
+            return rise
+    return None
+
+
+def _rise_after(
+    x: np.ndarray, start: int, end: int, stop: int, s: Settings, innovation: float
+) -> Rise | None:
+    """The first burst in ``[end + span, stop)`` of the error of the predictor fitted over
+    ``x[start:end]``: the mean square over ``span`` (:data:`~synth.analysis.detection.
+    STANDS_OUT_SPAN`) from a sample on the hop grid over that of the error before it (at most
+    :data:`~synth.analysis.detection.STANDS_OUT_BEFORE`, never the fitted stretch) beyond
+    white noise's F quantile, and its peak within ``dynamic_range_db`` of ``innovation`` (the
+    strongest impact's contact force, as step 9)."""
+    from scipy.signal import lfilter
+
+    fs, hop = s.samplerate, s.hop
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    held = max(span, int(round(STANDS_OUT_BEFORE * fs)))
+    if end + 2 * span > min(stop, x.size - span) or end - start < 4:
+        return None
+    a = ringing_predictor(x[start:end])
+    if a is None:
+        return None
+    p = a.size - 1
+    stop_e = min(x.size, stop + span)
+    e = lfilter(a, [1.0], x[end - p : stop_e])[p:]  # e[i]: the error at sample end + i
+    energies = frame_energies(e, hop, span)  # over [k hop, k hop + span)
+    if energies.size == 0:
+        return None
+    before = np.r_[0.0, np.cumsum(e * e)]
+    k = np.arange(energies.size)
+    lo = np.maximum(0, k * hop - held)
+    length = k * hop - lo
+    ok = length >= span
+    mean_before = np.where(ok, (before[k * hop] - before[lo]) / np.maximum(length, 1), np.inf)
+    alarm = hop / fs / FALSE_ALARM_SPAN
+    need = np.array([_need(span, int(m), alarm) if m >= span else np.inf for m in length])
+    ratio = energies / span / np.maximum(mean_before, 1e-300)
+    floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
+    peak = _span_peaks(np.abs(e), hop, span, energies.size)
+    hits = np.nonzero(ok & (ratio >= need) & (peak > floor))[0]
+    if not hits.size:
+        return None
+    h = int(hits[0])
+    sigma = ONSET_NOISE_SIGMAS * math.sqrt(mean_before[h])
+    lo_w = max(0, h * hop - hop)
+    hi_w = min(e.size, h * hop + span + hop)
+    on = refine_onset(
+        e, lo_w, hi_w, OnsetWalk(s.onset_fraction, s.onset_gap, sigma, strict=True)
+    )
+    on = max(on, float(h * hop - hop))  # the walk stays in the burst, out of the past
+    return Rise(end + on, 10.0 * math.log10(ratio[h] / need[h]))
+
+
+@functools.lru_cache(maxsize=1024)
+def _need(span: int, before: int, alarm: float) -> float:
+    """Ratio of the mean squares of ``span`` and ``before`` samples of white Gaussian noise
+    exceeded with probability ``alarm`` (Fisher's F distribution)."""
+    from scipy.stats import f as fisher
+
+    return float(fisher.isf(alarm, span, before))
+
+
+def _span_peaks(mag: np.ndarray, hop: int, span: int, count: int) -> np.ndarray:
+    """The largest of ``mag`` over ``[k hop, k hop + span)`` for ``k < count``."""
+    from scipy.ndimage import maximum_filter1d
+
+    m = maximum_filter1d(mag, size=span, origin=-(span // 2), mode="constant", cval=0.0)
+    return m[np.arange(count) * hop]
