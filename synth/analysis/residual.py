@@ -132,9 +132,7 @@ def _rise_after(
     sigma = ONSET_NOISE_SIGMAS * math.sqrt(mean_before[h])
     lo_w = max(0, h * hop - hop)
     hi_w = min(e.size, h * hop + span + hop)
-    on = refine_onset(
-        e, lo_w, hi_w, OnsetWalk(s.onset_fraction, s.onset_gap, sigma, strict=True)
-    )
+    on = refine_onset(e, lo_w, hi_w, OnsetWalk(s.onset_fraction, s.onset_gap, sigma, strict=True))
     on = max(on, float(h * hop - hop))  # the walk stays in the burst, out of the past
     return Rise(end + on, 10.0 * math.log10(ratio[h] / need[h]))
 
