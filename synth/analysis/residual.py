@@ -30,13 +30,19 @@ from synth.analysis.settings import Settings
 FREE_GUARD = 0.002
 #: The shortest stretch of free ringing a predictor is fitted over, s: a chatter's next impact
 #: may follow its contact by 3 ms; a predictor of a third of its samples models the strongest
-#: modes there (7 modes at 44.1 kHz), the longer fit (:data:`~synth.analysis.ringing.RINGING_FIT`)
-#: the rest of the gap.
+#: modes there (7 modes at 44.1 kHz), longer fits the rest of the gap.
 SHORT_FIT = 0.001
+#: Fits from :data:`SHORT_FIT` to :data:`~synth.analysis.ringing.RINGING_FIT`, their lengths in
+#: geometric steps (1, 3.2 and 10 ms): a predictor is trusted at most about three times its own
+#: stretch ahead, where the next one takes over (a short fit models few modes, and the others'
+#: beating drifts out of it).
+FIT_STEPS = 3
 #: Seconds of white-noise prediction error over which the test passes once by chance: it is
 #: made at every hop of every gap, so its false-alarm probability per position is the hop over
 #: this (2.5e-7 at the default hop), where step 8's one test per burst may pass once in 1.6e4.
 FALSE_ALARM_SPAN = 1000.0
+#: The error is worked out over stretches of this much, s, up to the first burst.
+SCAN_CHUNK = 0.05
 
 
 @dataclass(frozen=True)
@@ -74,15 +80,18 @@ def first_rise(
     x: np.ndarray, onset: float, stop: int, s: Settings, innovation: float
 ) -> Rise | None:
     """The first burst of ``x`` before ``stop`` in the prediction error of the ringing free from
-    :data:`FREE_GUARD` after ``onset``: over a predictor of :data:`SHORT_FIT` up to where the
-    predictor of :data:`~synth.analysis.ringing.RINGING_FIT` is tested, then over that one."""
+    :data:`FREE_GUARD` after ``onset``: predictors fitted over :data:`FIT_STEPS` lengths from
+    :data:`SHORT_FIT` to :data:`~synth.analysis.ringing.RINGING_FIT`, each tested up to where
+    the next longer one's test begins."""
     fs = s.samplerate
     start = int(math.floor(onset)) + int(round(FREE_GUARD * fs))
-    short = max(1, int(round(SHORT_FIT * fs)))
-    full = max(short, int(round(RINGING_FIT * fs)))
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
-    handover = start + full + span  # where the longer fit's test begins
-    for n, limit in ((short, handover), (full, stop)):
+    lengths = [
+        max(1, int(round(SHORT_FIT * (RINGING_FIT / SHORT_FIT) ** (i / (FIT_STEPS - 1)) * fs)))
+        for i in range(FIT_STEPS)
+    ]
+    limits = [start + n + span for n in lengths[1:]] + [stop]
+    for n, limit in zip(lengths, limits):
         rise = _rise_after(x, start, start + n, min(limit, stop), s, innovation)
         if rise is not None:
             return rise
@@ -98,43 +107,63 @@ def _rise_after(
     :data:`~synth.analysis.detection.STANDS_OUT_BEFORE`, never the fitted stretch) beyond
     white noise's F quantile, and its peak within ``dynamic_range_db`` of ``innovation`` (the
     strongest impact's contact force, as step 9)."""
-    from scipy.signal import lfilter
-
-    fs, hop = s.samplerate, s.hop
+    fs = s.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
-    held = max(span, int(round(STANDS_OUT_BEFORE * fs)))
     if end + 2 * span > min(stop, x.size - span) or end - start < 4:
         return None
     a = ringing_predictor(x[start:end])
     if a is None:
         return None
+    chunk = max(int(round(SCAN_CHUNK * fs)), 8 * s.hop)
+    chunk -= chunk % s.hop
+    for c0 in range(end, stop, chunk):  # the first burst costs only the stretch up to it
+        rise = _first_hit(x, a, end, c0, min(stop, c0 + chunk), s, innovation)
+        if rise is not None:
+            return rise
+    return None
+
+
+def _first_hit(
+    x: np.ndarray, a: np.ndarray, end: int, c0: int, c1: int, s: Settings, innovation: float
+) -> Rise | None:
+    """:func:`_rise_after`'s test at the hop grid's samples in ``[c0, c1)`` (from ``end``, the
+    fitted stretch's end) of the error of the prediction-error filter ``a``."""
+    from scipy.signal import lfilter
+
+    fs, hop = s.samplerate, s.hop
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    held = max(span, int(round(STANDS_OUT_BEFORE * fs)))
     p = a.size - 1
-    stop_e = min(x.size, stop + span)
-    e = lfilter(a, [1.0], x[end - p : stop_e])[p:]  # e[i]: the error at sample end + i
-    energies = frame_energies(e, hop, span)  # over [k hop, k hop + span)
-    if energies.size == 0:
+    b0 = max(end, c0 - held)  # the error from b0: never over the fitted stretch
+    b1 = min(x.size, c1 + span)
+    e = lfilter(a, [1.0], x[b0 - p : b1])[p:]  # e[i]: the error at sample b0 + i
+    first = c0 - b0
+    count = (min(c1, b1 - span) - c0 + hop - 1) // hop
+    if count <= 0:
         return None
-    before = np.r_[0.0, np.cumsum(e * e)]
-    k = np.arange(energies.size)
-    lo = np.maximum(0, k * hop - held)
-    length = k * hop - lo
+    k = first + np.arange(count) * hop  # the positions in e
+    energies = frame_energies(e[first:], hop, span)[:count]
+    cum = np.r_[0.0, np.cumsum(e * e)]
+    lo = np.maximum(0, k - held)
+    length = k - lo
     ok = length >= span
-    mean_before = np.where(ok, (before[k * hop] - before[lo]) / np.maximum(length, 1), np.inf)
+    mean_before = np.where(ok, (cum[k] - cum[lo]) / np.maximum(length, 1), np.inf)
     alarm = hop / fs / FALSE_ALARM_SPAN
     need = np.array([_need(span, int(m), alarm) if m >= span else np.inf for m in length])
     ratio = energies / span / np.maximum(mean_before, 1e-300)
     floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
-    peak = _span_peaks(np.abs(e), hop, span, energies.size)
+    peak = _span_peaks(np.abs(e[first:]), hop, span, count)
     hits = np.nonzero(ok & (ratio >= need) & (peak > floor))[0]
     if not hits.size:
         return None
     h = int(hits[0])
+    at = int(k[h])
     sigma = ONSET_NOISE_SIGMAS * math.sqrt(mean_before[h])
-    lo_w = max(0, h * hop - hop)
-    hi_w = min(e.size, h * hop + span + hop)
+    lo_w = max(0, at - hop)
+    hi_w = min(e.size, at + span + hop)
     on = refine_onset(e, lo_w, hi_w, OnsetWalk(s.onset_fraction, s.onset_gap, sigma, strict=True))
-    on = max(on, float(h * hop - hop))  # the walk stays in the burst, out of the past
-    return Rise(end + on, 10.0 * math.log10(ratio[h] / need[h]))
+    on = max(on, float(lo_w))  # the walk stays in the burst, out of the past
+    return Rise(b0 + on, 10.0 * math.log10(ratio[h] / need[h]))
 
 
 @functools.lru_cache(maxsize=1024)
