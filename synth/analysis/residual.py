@@ -149,7 +149,8 @@ def _first_hit(
     ok = length >= span
     mean_before = np.where(ok, (cum[k] - cum[lo]) / np.maximum(length, 1), np.inf)
     alarm = hop / fs / FALSE_ALARM_SPAN
-    need = np.array([_need(span, int(m), alarm) if m >= span else np.inf for m in length])
+    c = correlation_spread(e[first:], span)
+    need = np.array([_need(span / c, int(m) / c, alarm) if m >= span else np.inf for m in length])
     ratio = energies / span / np.maximum(mean_before, 1e-300)
     floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
     peak = _span_peaks(np.abs(e[first:]), hop, span, count)
@@ -166,9 +167,24 @@ def _first_hit(
     return Rise(b0 + on, 10.0 * math.log10(ratio[h] / need[h]))
 
 
+def correlation_spread(z: np.ndarray, lags: int) -> float:
+    """``sum_k rho_k^2`` over the lags ``|k| < lags`` of ``z``'s autocorrelation ``rho`` (1 for
+    white noise): the variance of a mean square of ``n`` samples of a Gaussian process is that of
+    ``n / spread`` white ones (Bartlett 1946, J. R. Stat. Soc. Suppl. 8, 27), so the residual's
+    leftover ringing, coloured, counts as fewer independent samples."""
+    n = z.size
+    if n < 2 * lags or not np.any(z):
+        return 1.0
+    m = 1 << int(math.ceil(math.log2(n + lags)))
+    f = np.fft.rfft(z, m)
+    r = np.fft.irfft(f * np.conj(f), m)[:lags]
+    rho = r / r[0]
+    return float(max(1.0, 1.0 + 2.0 * np.dot(rho[1:], rho[1:])))
+
+
 @functools.lru_cache(maxsize=1024)
-def _need(span: int, before: int, alarm: float) -> float:
-    """Ratio of the mean squares of ``span`` and ``before`` samples of white Gaussian noise
+def _need(span: float, before: float, alarm: float) -> float:
+    """Ratio of the mean squares of ``span`` and ``before`` independent samples of Gaussian noise
     exceeded with probability ``alarm`` (Fisher's F distribution)."""
     from scipy.stats import f as fisher
 
