@@ -16,6 +16,7 @@ import numpy as np
 from synth.analysis.detection import (
     ONSET_NOISE_SIGMAS,
     STANDS_OUT_BEFORE,
+    STANDS_OUT_FALSE_ALARM,
     STANDS_OUT_SPAN,
     OnsetWalk,
     frame_energies,
@@ -41,6 +42,10 @@ FIT_STEPS = 3
 #: made at every hop of every gap, so its false-alarm probability per position is the hop over
 #: this (2.5e-7 at the default hop), where step 8's one test per burst may pass once in 1.6e4.
 FALSE_ALARM_SPAN = 1000.0
+#: Two bursts lie as far from the ticks before them within this, samples, only as echoes at one
+#: delay (a reflection's path does not change; the searches time a burst within two sample
+#: periods), not as two bounces of a ball (whose flights differ by more).
+ECHO_SLACK = 2.0
 #: The error is worked out over stretches of this much, s, up to the first burst.
 SCAN_CHUNK = 0.05
 
@@ -58,22 +63,110 @@ class Rise:
 def residual_ticks(
     x: np.ndarray, onsets: np.ndarray, settings: Settings, innovation: float
 ) -> list[Rise]:
-    """The bursts of ``x`` between the ticks at ``onsets`` (samples, in time order) and after the
-    last, each at least ``min_separation`` from every tick, that the ringing predicted from the
-    free stretch after the tick before does not explain (:func:`first_rise`); each found starts
-    a new free stretch. Linear in the recording's length: one or two fits per tick found."""
-    out: list[Rise] = []
+    """The bursts of ``x`` between the ticks at ``onsets`` (samples, in time order) after the
+    second and after the last, each at least ``min_separation`` from every tick, that the
+    ringing predicted from the free stretch after the tick before does not explain
+    (:func:`first_rise`); each found starts a new free stretch. The first bounce's bursts are
+    the first tick's own response (step 3: a room's reflections, a pickup's echo): a later
+    burst as far from an earlier tick as one of them from the first (:func:`echo_delays`) is
+    its echo, no impact; so are bursts as far from the tick before them as another is (within
+    :data:`ECHO_SLACK`), which the first tick's ringing hid. Linear in the recording's length:
+    up to three fits per tick found."""
+    onsets = np.asarray(onsets, dtype=float)
+    if onsets.size < 2:
+        return []
     sep = settings.min_separation
-    ends = list(np.asarray(onsets[1:], dtype=float) - sep) + [float(x.size)]
-    for a, stop in zip(np.asarray(onsets, dtype=float), ends):
-        start = float(a)
-        while True:
-            rise = first_rise(x, start, int(math.floor(stop)), settings, innovation)
-            if rise is None or rise.onset - start < sep:
-                break
-            out.append(rise)
-            start = rise.onset
-    return out
+    stops = [int(math.floor(v)) for v in onsets[2:] - sep] + [x.size]
+    echoes = echo_delays(x, onsets[0], int(math.floor(onsets[1] - sep)), settings, innovation)
+    out: list[Rise] = []
+    after: list[float] = []  # each rise's delay from the tick or rise before it
+    ticks = list(onsets)
+    for a, stop in zip(onsets[1:], stops):
+        last = float(a)
+        for r in _gap_rises(x, float(a), stop, settings, innovation):
+            delays = r.onset - np.array([t for t in ticks if t < r.onset])
+            if not np.any((delays[:, None] >= echoes[:, 0]) & (delays[:, None] <= echoes[:, 1])):
+                out.append(r)
+                after.append(r.onset - last)
+            ticks.append(r.onset)
+            last = r.onset
+    d = np.array(after)
+    repeated = np.abs(d[:, None] - d[None, :]) <= ECHO_SLACK
+    return [r for r, n in zip(out, repeated.sum(axis=1)) if n == 1]
+
+
+def echo_delays(
+    x: np.ndarray, onset: float, stop: int, s: Settings, innovation: float
+) -> np.ndarray:
+    """The delays (samples, rows ``[lo, hi]``) from ``onset`` (the first tick's) of the bursts of
+    its response up to ``stop`` (the second tick): every run of samples that passes
+    :func:`_scan`'s test under the predictors of :func:`first_rise`, from a hop before its
+    first to the test's span after its last. The test is step 8's, one false alarm in
+    :data:`~synth.analysis.detection.STANDS_OUT_FALSE_ALARM`: a later burst is judged at its
+    own delay, once, not searched for (a reflection shows fainter under the first tick's
+    ringing than under a later one's)."""
+    fs, hop = s.samplerate, s.hop
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    start = int(math.floor(onset)) + int(round(FREE_GUARD * fs))
+    passing = []
+    for n, limit in _fits(start, stop, fs):
+        end = start + n
+        a = _fitted(x, start, end, limit, fs)
+        if a is None:
+            continue
+        for c0, c1 in _chunks(end, limit, fs, hop):
+            sc = _scan(x, a, end, c0, c1, s, innovation, STANDS_OUT_FALSE_ALARM)
+            if sc is not None:
+                passing.append(sc.positions)
+    pos = np.unique(np.concatenate(passing)) if passing else np.zeros(0, dtype=int)
+    if not pos.size:
+        return np.zeros((0, 2))
+    breaks = np.nonzero(np.diff(pos) > hop)[0]
+    firsts = pos[np.r_[0, breaks + 1]]
+    lasts = pos[np.r_[breaks, pos.size - 1]]
+    return np.column_stack((firsts - hop - onset, lasts + span - onset))
+
+
+def _fitted(x: np.ndarray, start: int, end: int, stop: int, fs: float) -> np.ndarray | None:
+    """Step 9's predictor of ``x[start:end]``, None where nothing after it up to ``stop`` can be
+    tested (a span of error before a span tested) or the stretch is silent."""
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    if end + 2 * span > min(stop, x.size - span) or end - start < 4:
+        return None
+    return ringing_predictor(x[start:end])
+
+
+def _fits(start: int, stop: int, fs: float) -> list[tuple[int, int]]:
+    """:func:`first_rise`'s fits from ``start``: each one's length and the end of its test
+    (samples), the next longer one's first test sample, the last ``stop``."""
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    lengths = [
+        max(1, int(round(SHORT_FIT * (RINGING_FIT / SHORT_FIT) ** (i / (FIT_STEPS - 1)) * fs)))
+        for i in range(FIT_STEPS)
+    ]
+    limits = [min(stop, start + n + span) for n in lengths[1:]] + [stop]
+    return list(zip(lengths, limits))
+
+
+def _chunks(end: int, stop: int, fs: float, hop: int) -> list[tuple[int, int]]:
+    """``[end, stop)`` in stretches of :data:`SCAN_CHUNK`, a whole number of hops each."""
+    chunk = max(int(round(SCAN_CHUNK * fs)), 8 * hop)
+    chunk -= chunk % hop
+    return [(c0, min(stop, c0 + chunk)) for c0 in range(end, stop, chunk)]
+
+
+def _gap_rises(
+    x: np.ndarray, onset: float, stop: int, settings: Settings, innovation: float
+) -> list[Rise]:
+    """The bursts of :func:`first_rise` one after the other from ``onset`` up to ``stop``."""
+    out: list[Rise] = []
+    start = onset
+    while True:
+        rise = first_rise(x, start, stop, settings, innovation)
+        if rise is None or rise.onset - start < settings.min_separation:
+            return out
+        out.append(rise)
+        start = rise.onset
 
 
 def first_rise(
@@ -83,16 +176,9 @@ def first_rise(
     :data:`FREE_GUARD` after ``onset``: predictors fitted over :data:`FIT_STEPS` lengths from
     :data:`SHORT_FIT` to :data:`~synth.analysis.ringing.RINGING_FIT`, each tested up to where
     the next longer one's test begins."""
-    fs = s.samplerate
-    start = int(math.floor(onset)) + int(round(FREE_GUARD * fs))
-    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
-    lengths = [
-        max(1, int(round(SHORT_FIT * (RINGING_FIT / SHORT_FIT) ** (i / (FIT_STEPS - 1)) * fs)))
-        for i in range(FIT_STEPS)
-    ]
-    limits = [start + n + span for n in lengths[1:]] + [stop]
-    for n, limit in zip(lengths, limits):
-        rise = _rise_after(x, start, start + n, min(limit, stop), s, innovation)
+    start = int(math.floor(onset)) + int(round(FREE_GUARD * s.samplerate))
+    for n, limit in _fits(start, stop, s.samplerate):
+        rise = _rise_after(x, start, start + n, limit, s, innovation)
         if rise is not None:
             return rise
     return None
@@ -108,16 +194,11 @@ def _rise_after(
     white noise's F quantile, and its peak within ``dynamic_range_db`` of ``innovation`` (the
     strongest impact's contact force, as step 9)."""
     fs = s.samplerate
-    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
-    if end + 2 * span > min(stop, x.size - span) or end - start < 4:
-        return None
-    a = ringing_predictor(x[start:end])
+    a = _fitted(x, start, end, stop, fs)
     if a is None:
         return None
-    chunk = max(int(round(SCAN_CHUNK * fs)), 8 * s.hop)
-    chunk -= chunk % s.hop
-    for c0 in range(end, stop, chunk):  # the first burst costs only the stretch up to it
-        rise = _first_hit(x, a, end, c0, min(stop, c0 + chunk), s, innovation)
+    for c0, c1 in _chunks(end, stop, fs, s.hop):  # the first burst costs the stretch to it
+        rise = _first_hit(x, a, end, c0, c1, s, innovation)
         if rise is not None:
             return rise
     return None
@@ -126,8 +207,54 @@ def _rise_after(
 def _first_hit(
     x: np.ndarray, a: np.ndarray, end: int, c0: int, c1: int, s: Settings, innovation: float
 ) -> Rise | None:
+    """:func:`_rise_after`'s first burst in ``[c0, c1)`` (:func:`_scan`), its onset walked back
+    on the error (step 4)."""
+    sc = _scan(x, a, end, c0, c1, s, innovation)
+    if sc is None or not sc.hits.size:
+        return None
+    h = int(sc.hits[0])
+    at = int(sc.k[h])
+    sigma = ONSET_NOISE_SIGMAS * math.sqrt(sc.mean_before[h])
+    lo_w = max(0, at - s.hop)
+    hi_w = min(sc.e.size, at + max(1, int(round(STANDS_OUT_SPAN * s.samplerate))) + s.hop)
+    walk = OnsetWalk(s.onset_fraction, s.onset_gap, sigma, strict=True)
+    on = max(refine_onset(sc.e, lo_w, hi_w, walk), float(lo_w))  # in the burst, not the past
+    return Rise(sc.b0 + on, 10.0 * math.log10(sc.margin[h]))
+
+
+@dataclass(frozen=True)
+class Scan:
+    """:func:`_scan`'s error ``e`` from sample ``b0``, the positions tested (indices of ``e``), the
+    mean square before each, each one's margin over the F quantile (power ratio) and the indices
+    of those that pass."""
+
+    e: np.ndarray
+    b0: int
+    k: np.ndarray
+    mean_before: np.ndarray
+    margin: np.ndarray
+    hits: np.ndarray
+
+    @property
+    def positions(self) -> np.ndarray:
+        """The samples of ``x`` that pass."""
+        return self.b0 + self.k[self.hits]
+
+
+def _scan(
+    x: np.ndarray,
+    a: np.ndarray,
+    end: int,
+    c0: int,
+    c1: int,
+    s: Settings,
+    innovation: float,
+    alarm: float | None = None,
+) -> Scan | None:
     """:func:`_rise_after`'s test at the hop grid's samples in ``[c0, c1)`` (from ``end``, the
-    fitted stretch's end) of the error of the prediction-error filter ``a``."""
+    fitted stretch's end) of the error of the prediction-error filter ``a``, at the false-alarm
+    probability ``alarm`` per sample (default :data:`FALSE_ALARM_SPAN`'s); None where no sample
+    is tested."""
     from scipy.signal import lfilter
 
     fs, hop = s.samplerate, s.hop
@@ -148,23 +275,14 @@ def _first_hit(
     length = k - lo
     ok = length >= span
     mean_before = np.where(ok, (cum[k] - cum[lo]) / np.maximum(length, 1), np.inf)
-    alarm = hop / fs / FALSE_ALARM_SPAN
+    alarm = hop / fs / FALSE_ALARM_SPAN if alarm is None else alarm
     c = correlation_spread(e[first:], span)
     need = np.array([_need(span / c, int(m) / c, alarm) if m >= span else np.inf for m in length])
-    ratio = energies / span / np.maximum(mean_before, 1e-300)
+    margin = energies / span / np.maximum(mean_before, 1e-300) / need
     floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
     peak = _span_peaks(np.abs(e[first:]), hop, span, count)
-    hits = np.nonzero(ok & (ratio >= need) & (peak > floor))[0]
-    if not hits.size:
-        return None
-    h = int(hits[0])
-    at = int(k[h])
-    sigma = ONSET_NOISE_SIGMAS * math.sqrt(mean_before[h])
-    lo_w = max(0, at - hop)
-    hi_w = min(e.size, at + span + hop)
-    on = refine_onset(e, lo_w, hi_w, OnsetWalk(s.onset_fraction, s.onset_gap, sigma, strict=True))
-    on = max(on, float(lo_w))  # the walk stays in the burst, out of the past
-    return Rise(b0 + on, 10.0 * math.log10(ratio[h] / need[h]))
+    hits = np.nonzero(ok & (margin >= 1.0) & (peak > floor))[0]
+    return Scan(e, b0, k, mean_before, margin, hits)
 
 
 def correlation_spread(z: np.ndarray, lags: int) -> float:

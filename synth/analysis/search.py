@@ -21,13 +21,14 @@ from synth.analysis.options import MAX_ORDER
 from synth.analysis.residual import residual_ticks
 from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.ringing import ringing_explained
-from synth.analysis.series import bounce_order
+from synth.analysis.series import DOUBTFUL_DB, bounce_order
 from synth.analysis.settings import (
     AnalysisError,
     Settings,
 )
 from synth.analysis.validity import (
     RiseTest,
+    adds_sound,
     not_impacts,
     without_spurious_end,
 )
@@ -104,17 +105,23 @@ def _with_residual_ticks(
     test: RiseTest,
 ) -> tuple[TickMeter, list]:
     """Step 10: ``meter`` and its ``ticks`` with the impacts the ringing's residual shows
-    (:func:`~synth.analysis.residual.residual_ticks`); a new tick that step 9 or the
+    (:func:`~synth.analysis.residual.residual_ticks`); one under
+    :data:`~synth.analysis.series.DOUBTFUL_DB` must raise the recording's spectrum as a drop's
+    start (:func:`~synth.analysis.validity.adds_sound`). A new tick that step 9 or the
     non-impacts' rule drops is left out, the others measured again without it."""
     onsets = np.array([f.onset for f in meter.found])
     if onsets.size == 0:
         return meter, ticks
     rises = residual_ticks(x, onsets, settings, innovation)
-    added = [
-        FoundTick(r.onset, r.strength, None, 0, r.onset)
-        for r in rises
-        if np.abs(onsets - r.onset).min() >= settings.min_separation
-    ]
+    fs = settings.samplerate
+    added = []
+    for r in rises:
+        gap = float(np.abs(onsets - r.onset).min())
+        if gap < settings.min_separation:
+            continue
+        if r.strength < DOUBTFUL_DB and not adds_sound(test, r.onset / fs, gap / fs):
+            continue  # a doubtful burst (an echo's, a reverberation's) must add sound
+        added.append(FoundTick(r.onset, r.strength, None, 0, r.onset))
     while added:
         found = sorted(meter.found + added, key=lambda f: f.onset)
         trial = TickMeter(x, found, meter.whitenings, settings, meter.noise)
