@@ -685,11 +685,13 @@ def plate_onsets():
     return np.array(t)
 
 
-def ringing_plate(fs, onsets, only=None, dur=1.0, n_modes=300, seed=5, t60=(0.5, 3.0)):
+def ringing_plate(
+    fs, onsets, only=None, dur=1.0, n_modes=300, seed=5, t60=(0.5, 3.0), speeds=None
+):
     """A plate of ``n_modes`` modes (150 Hz to 0.45 fs; T60 in ``t60``, s, log-uniform;
     Rayleigh amplitudes; every mode starting as a sine, a velocity response) struck by
-    impulses at ``onsets`` (s), the k-th with speed ``PLATE_E^k`` (tick ``only`` alone, if
-    given). Each mode is a one-pole recursion fed, at the first sample after each onset,
+    impulses at ``onsets`` (s), the k-th with speed ``speeds[k]`` (default ``PLATE_E^k``; tick
+    ``only`` alone, if given). Each mode is a one-pole recursion fed, at the first sample after each onset,
     with its exact value there: the sampled sum of damped sinusoids, tails overlapping."""
     from scipy.signal import lfilter
 
@@ -705,7 +707,8 @@ def ringing_plate(fs, onsets, only=None, dur=1.0, n_modes=300, seed=5, t60=(0.5,
     for m in range(n_modes):
         feed = np.zeros(n, dtype=complex)
         for k in ticks:
-            feed[first[k]] += PLATE_E**k * amp[m] * -1j * np.exp(p[m] * (first[k] / fs - onsets[k]))
+            v = PLATE_E**k if speeds is None else speeds[k]
+            feed[first[k]] += v * amp[m] * -1j * np.exp(p[m] * (first[k] / fs - onsets[k]))
         x += lfilter([1.0], [1.0, -np.exp(p[m] / fs)], feed).real
     return x
 

@@ -277,7 +277,8 @@ def _scan(
     mean_before = np.where(ok, (cum[k] - cum[lo]) / np.maximum(length, 1), np.inf)
     alarm = hop / fs / FALSE_ALARM_SPAN if alarm is None else alarm
     c = correlation_spread(e[first:], span)
-    need = np.array([_need(span / c, int(m) / c, alarm) if m >= span else np.inf for m in length])
+    d1 = max(1, int(span / c))  # whole degrees of freedom, rounded down: a quantile no lower
+    need = np.array([_need(d1, max(1, int(m / c)), alarm) if m >= span else np.inf for m in length])
     margin = energies / span / np.maximum(mean_before, 1e-300) / need
     floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
     peak = _span_peaks(np.abs(e[first:]), hop, span, count)
@@ -301,7 +302,7 @@ def correlation_spread(z: np.ndarray, lags: int) -> float:
 
 
 @functools.lru_cache(maxsize=1024)
-def _need(span: float, before: float, alarm: float) -> float:
+def _need(span: int, before: int, alarm: float) -> float:
     """Ratio of the mean squares of ``span`` and ``before`` independent samples of Gaussian noise
     exceeded with probability ``alarm`` (Fisher's F distribution)."""
     from scipy.stats import f as fisher
