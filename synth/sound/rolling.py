@@ -210,12 +210,22 @@ def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
     wi = np.ascontiguousarray(modes.state.imag)
     e, g = modes.ringing, modes.gain
     _drive(
-        force, coordinate, float(path.start), float(path.step), np.ascontiguousarray(table),
+        _read_only(force), _read_only(coordinate), float(path.start), float(path.step),
+        np.ascontiguousarray(table),
         np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
         np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
         np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag), wr, wi, previous, out,
     )  # fmt: skip
     return wr + 1j * wi
+
+
+def _read_only(samples) -> np.ndarray:
+    """``samples`` as a read-only C-contiguous float64 array (a view where it is one): the
+    compiled drive then takes one type of input whether the caller's array is writable or
+    not (a read-only one is a view of a table or a cache), so it compiles once."""
+    view = np.ascontiguousarray(samples, dtype=float).view()
+    view.flags.writeable = False
+    return view
 
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
