@@ -147,6 +147,7 @@ def test_pairs_are_nearest_neighbours_of_one_class():
     np.testing.assert_array_equal(partner, [2, -1, 0, -1, -1, -1])
 
 
+@pytest.mark.slow  # the edge effect solve's kernels compile on its first use
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
 def test_edge_effect_factors_have_unit_mean_square(boundary):
     """Each factor ``X_k`` has mean square 1 on [-1, 1] (64-point Gauss-Legendre panels,
@@ -161,6 +162,7 @@ def test_edge_effect_factors_have_unit_mean_square(boundary):
     np.testing.assert_allclose(ws @ fy**2 / 2.0, 1.0, rtol=1e-9)
 
 
+@pytest.mark.slow  # the edge effect solve's kernels compile on its first use
 def test_clamped_edge_effect_shapes_vanish_on_the_edges():
     """Clamped factors satisfy ``X(+-1) = 0`` (the edge condition, to rounding)."""
     sol = AM.solve("clamped", 0.3, 1.6, 3000.0)

@@ -303,6 +303,7 @@ def test_normalize_loudness_rejects_unmeasurable_audio():
         )
 
 
+@pytest.mark.slow  # three renders to 12 kHz, the plate's modes in the contact in two
 @pytest.mark.parametrize(
     "preset", ["thesis-glass17-mdf12", "thesis-steel10-mdf6", "ceramic-cup-on-stone"]
 )

@@ -63,6 +63,7 @@ def test_run_contact_summary():
     assert "The impacts of a drop" in text and "contacts in a drop" in text
 
 
+@pytest.mark.slow  # every benchmark scene and rolling preset rendered, and a whole process
 def test_run_render_one_floor():
     # The render benchmark at the default settings only: every scene within -60 dB of its
     # reference (no omission, fine transforms), the modal bank's cost measured.

@@ -128,8 +128,7 @@ def drive_modes(
     where an earlier call left the modes (``preload`` then 0) and leave the end's state in it:
     consecutive calls give the signal of one call."""
     fs = checks.samplerate(samplerate)
-    F = np.ascontiguousarray(force, dtype=float)
-    c = np.ascontiguousarray(coordinate, dtype=float)
+    F, c = _read_only(force), _read_only(coordinate)
     if F.ndim != 1 or c.shape != F.shape:
         raise ParameterError(
             f"force {F.shape} and coordinate {c.shape} must be 1-D arrays of one length"
@@ -200,6 +199,15 @@ def drive_modes(
         state.zeta = zeta
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
+
+
+def _read_only(samples) -> np.ndarray:
+    """``samples`` as a read-only C-contiguous float64 array (a view where it is one): the
+    compiled drive then takes one type of input whether the caller's array is writable or
+    not (a read-only one is a view of a table or a cache), so it compiles once."""
+    view = np.ascontiguousarray(samples, dtype=float).view()
+    view.flags.writeable = False
+    return view
 
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
