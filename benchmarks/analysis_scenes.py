@@ -52,6 +52,11 @@ AUDIBLE_RANGE_DB = 60.0
 #: this long, s.
 AUDIBLE_WINDOW = 0.02
 
+#: How a scene's render ended (:attr:`SceneScore.render`): scored; refused by the engine
+#: (``ParameterError``: a scene outside what it renders, by design); or failed (any other
+#: ``SynthError``: the engine could not render a scene it accepts).
+SCORED, REFUSED, RENDER_FAILED = "scored", "refused", "render failed"
+
 _BALLS = ("steel", "glass", "rubber", "aluminium", "brass", "porcelain")
 _PLATES = (
     "aluminium",
@@ -272,7 +277,8 @@ def impact_audibility(scene, seq, r, audio: np.ndarray) -> Audibility:
 class SceneScore:
     """The analysis of one scene against its truth: impacts (all, audible), ticks reported,
     false ticks, impossible values, audible impacts missed, audio length (s), analysis time
-    (s), the error raised instead of a result (None) and each fault, in words."""
+    (s), the error raised instead of a result (None), each fault, in words, and how the
+    render ended (:data:`SCORED`, :data:`REFUSED` or :data:`RENDER_FAILED`)."""
 
     scene: str
     impacts: int
@@ -285,6 +291,7 @@ class SceneScore:
     seconds: float
     error: str | None = None
     faults: tuple[str, ...] = ()
+    render: str = SCORED
 
 
 def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
@@ -420,13 +427,16 @@ def timed_analysis(audio: np.ndarray, samplerate: int, limit: float | None):
 def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
     """Render ``spec``, analyse it with the defaults (timed; stopped after ``limit`` s when
     given) and score it. A scene the engine refuses to render (``ParameterError``: the ball
-    comes to rest on the plate within the render) scores nothing, with the reason."""
-    from synth.errors import ParameterError
+    comes to rest on the plate within the render) or fails to render (another
+    ``SynthError``) scores nothing, with the reason: the other scenes are scored still."""
+    from synth.errors import ParameterError, SynthError
 
     try:
         truth = render_truth(spec)
     except ParameterError as exc:
-        return SceneScore(spec.describe(), 0, 0, 0, 0, 0, 0, 0.0, 0.0, f"not rendered: {exc}")
+        return _unrendered(spec, REFUSED, f"not rendered: {exc}")
+    except SynthError as exc:
+        return _unrendered(spec, RENDER_FAILED, f"{RENDER_FAILED}: {exc}")
     duration = truth.audio.size / truth.samplerate
     ticks, error, seconds = timed_analysis(truth.audio, truth.samplerate, limit)
     false, impossible, missed = faults(truth, ticks)
@@ -449,6 +459,11 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
     )
 
 
+def _unrendered(spec: SceneSpec, render: str, error: str) -> SceneScore:
+    """The row of a scene with no render to score: ``render`` says why, ``error`` in words."""
+    return SceneScore(spec.describe(), 0, 0, 0, 0, 0, 0, 0.0, 0.0, error, render=render)
+
+
 def missed_detail(truth: Truth, missed: list) -> str:
     """The missed impacts' margins over the ringing (dB) and the bounces before them (ms,
     none for the first impact), in the order of ``missed``: a fast chatter's misses, a few
@@ -463,7 +478,8 @@ def missed_detail(truth: Truth, missed: list) -> str:
 
 def run_random(count: int, seed: int, limit: float | None = None) -> dict:
     """:func:`run_scene` over ``count`` scenes of :func:`random_specs` (``seed``), each
-    analysis stopped after ``limit`` s when given, and the totals."""
+    analysis stopped after ``limit`` s when given, and the totals (scenes refused and
+    renders failed counted apart)."""
     rows = []
     for i, spec in enumerate(random_specs(count, seed), 1):
         rows.append(asdict(run_scene(spec, limit)))
@@ -487,6 +503,8 @@ def run_random(count: int, seed: int, limit: float | None = None) -> dict:
         missed=sum(r["missed"] for r in rows),
         audible=sum(r["audible"] for r in rows),
         impacts=sum(r["impacts"] for r in rows),
+        refused=sum(r["render"] == REFUSED for r in rows),
+        render_failed=sum(r["render"] == RENDER_FAILED for r in rows),
         seconds_per_second=total_time / total_audio if total_audio else float("nan"),
         worst_seconds_per_second=max((_per_second(r) for r in rows), default=0.0),
     )
@@ -509,6 +527,8 @@ def format_random(result: dict) -> str:
     ]
     for i, r in enumerate(result["rows"], 1):
         note = f" (error: {r['error']})" if r["error"] else ""
+        if r["render"] != SCORED:
+            note = f" ({r['error']})"
         lines.append(
             f"| {i} | {r['scene']}{note} | {r['impacts']} ({r['audible']}) | {r['ticks']} | "
             f"{r['false_ticks']} | {r['impossible']} | {r['missed']} | {r['duration']:.1f} | "
@@ -519,6 +539,8 @@ def format_random(result: dict) -> str:
         f"{result['false_ticks']} false ticks, {result['impossible']} impossible values, "
         f"{result['missed']} audible impacts missed, "
         f"{result['seconds_per_second']:.3f} s of analysis per s of audio "
-        f"(worst scene {result['worst_seconds_per_second']:.3f})"
+        f"(worst scene {result['worst_seconds_per_second']:.3f}); "
+        f"{result['refused']} scenes refused by the engine, "
+        f"{result['render_failed']} renders failed"
     )
     return "\n".join(lines)

@@ -260,6 +260,29 @@ def test_bench_prints_the_totals(monkeypatch):
     assert result["rows"][0]["impacts"] >= result["rows"][0]["audible"] >= 1
 
 
+def test_a_failed_render_is_a_row_and_the_other_scenes_go_on(monkeypatch):
+    # an engine failure (SynthError) in one scene neither stops the bench nor hides the
+    # others: its row says so, and the totals count it apart from a refused scene
+    from benchmarks import analysis_scenes as bench
+    from synth.errors import ParameterError, SynthError
+
+    raised = iter([SynthError("impact 18 could not be solved"), ParameterError("drop.height")])
+
+    def render_truth(spec):
+        raise next(raised)
+
+    monkeypatch.setattr(bench, "render_truth", render_truth)
+    result = run_random(2, CORPUS_SEED)
+    failed, refused = result["rows"]
+    assert failed["render"] == bench.RENDER_FAILED and refused["render"] == bench.REFUSED
+    assert failed["error"] == "render failed: impact 18 could not be solved"
+    assert refused["error"] == "not rendered: drop.height"
+    assert (result["render_failed"], result["refused"]) == (1, 1)
+    text = format_random(result)
+    assert "(render failed: impact 18 could not be solved)" in text
+    assert "1 scenes refused by the engine, 1 renders failed" in text
+
+
 def test_random_is_refused_outside_the_analysis_bench(capsys):
     # --random draws scenes for the analysis only; its figures have no block in docs/
     from synth.cli import main

@@ -112,6 +112,17 @@ def yield_fraction(x0, x1, d0, d1, xy, xm, xp):
 
 
 @compiled()
+def yield_peak_at_start(x0, d0, d1, xy, xm):
+    """Whether a loading step from ``x0`` past ``xy`` (scaled rates ``d0 > 0 > d1`` at its
+    ends) starts on the peak to the resolution of x: the rise left to the root of x' (by x'
+    linear over the step) is below x's rounding, so no shorter step can land past the peak
+    and the peak is ``x0`` as exactly as x is stored."""
+    if xm != 0.0 or not (x0 > xy and d0 > 0.0 > d1):
+        return False
+    return 0.5 * d0 * d0 / (d0 - d1) <= _eq.EPS * x0
+
+
+@compiled()
 def radau_dense(hist, k, s):
     """(x, w) at time s inside Radau step k: its collocation polynomial."""
     p1 = (s - hist[k, H_T0]) / hist[k, H_H]

@@ -202,6 +202,10 @@ def integrate_dop853(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             # the step crosses the end of contact, a kink its error estimate and dense output
             # do not trust: redo it to land just past the root (cubic Hermite estimate)
             th = _d.hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
+        if _d.yield_peak_at_start(x, h * K[0, 0], h * K[_NS, 0], P.xy, xm):
+            # the yielded peak is here (force continuous): redo the step unloading from it
+            xm, xp, q3 = _eq.yielded_peak(P.xy, x, 0.0, xm, xp, q3)
+            continue
         th = min(th, _d.yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], P.xy, xm, xp))
         if b != 0.0:
             # the viscoelastic force switches off (or on) inside the contact: a kink of the

@@ -195,6 +195,12 @@ def integrate_radau(P, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             rejected = True
             j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
             continue
+        if _d.yield_peak_at_start(y[0], h * f0[0], h * dxn, P.xy, xm):
+            # the yielded peak is here (``integrate_dop853``): redo the step unloading from it
+            xm, xp, y[3] = _eq.yielded_peak(P.xy, y[0], 0.0, xm, xp, y[3])
+            rejected = True
+            j11, j12, j21, j22 = _eq.jacobian(P, y[0], y[1], xm)
+            continue
         # land on the yielded peak or the end of the unloading force (``yield_fraction``)
         th = _d.yield_fraction(y[0], xn, h * f0[0], h * dxn, P.xy, xm, xp)
         if th < 0.999:
