@@ -349,7 +349,7 @@ def test_a_cold_mode_solve_beyond_the_operations_budget_is_refused(capsys, tmp_p
         ),
         (
             'plate.material={name="x", density=700, young=1e308, poisson=0.3, damping={eta=0.01}}',
-            ["young=1e+308", "[100, 1.21e+12] Pa", "diamond"],
+            ["young=1e+308", "[100, 1.21e+12] (Pa", "diamond"],
         ),
         ("plate.material={name={}}", ["plate.material.name={}", "non-empty string"]),
     ],
