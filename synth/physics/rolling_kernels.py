@@ -11,6 +11,7 @@ from typing import NamedTuple
 
 from synth.compilation import compiled
 from synth.physics.contact_kernels import equations
+from synth.physics.contact_kernels.shell import DP5_A, DP5_E
 from synth.physics.surface import envelope_at, spline_piece
 
 #: The impact solver's contact law, the same compiled function as the impacts'.
@@ -58,21 +59,14 @@ STEP_TOO_SMALL = -2
 Z, VY, U, IMPULSE, LOSS, PLATE, DRIVE, GROSS, S = range(9)
 N_STATE = 9
 
-# Dormand-Prince 5(4) tableau (the equations are autonomous: no stage times).
-A21 = 1.0 / 5.0
-A31, A32 = 3.0 / 40.0, 9.0 / 40.0
-A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
-A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
-A61, A62, A63, A64, A65 = (
-    9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
-)  # fmt: skip
-B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
+# Dormand-Prince 5(4) tableau, the shell contact's (the equations are autonomous: no stage times).
+A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65 = (
+    float(DP5_A[i, j]) for i in range(1, 6) for j in range(i)
+)
+B1, _, B3, B4, B5, B6 = (float(b) for b in DP5_A[6])
+E1, _, E3, E4, E5, E6, E7 = (float(e) for e in DP5_E)
 #: Error over tolerance below which the step grows by the largest factor, 5 (``(0.9/5)^5``).
 TINY_ERROR = 1e-4
-E1, E3, E4, E5, E6, E7 = (
-    71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
-    -1.0 / 40.0,
-)  # fmt: skip
 
 
 @compiled(inline="always")

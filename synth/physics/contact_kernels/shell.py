@@ -34,9 +34,10 @@ SHELL_ABSOLUTE_FACTOR = 1e-6
 #: The dimensionless shell law (module docstring), the kernels' one argument for it.
 Shell = namedtuple("Shell", ("lam", "G", "rR", "xt", "rg", "a"))
 
-# Dormand & Prince 5(4): coupling rows, the last the 5th-order weights (its stage is the next
-# step's first), and the error weights.
-_A = np.array([
+#: Dormand & Prince 5(4): coupling rows, the last the 5th-order weights (its stage is the next
+#: step's first), and the error weights; the rolling contact's too (:mod:`~synth.physics.
+#: rolling_kernels`).
+DP5_A = np.array([
     [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
@@ -45,7 +46,7 @@ _A = np.array([
     [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
     [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
 ])  # fmt: skip
-_E = np.array([
+DP5_E = np.array([
     71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
     -1.0 / 40.0,
 ])  # fmt: skip
@@ -178,19 +179,19 @@ def dp5_step(y, K, h, law, yn, err):
     """One Dormand-Prince 5(4) step ``h`` from ``y`` with slopes ``K[0]``: state into ``yn``,
     stages into ``K`` (``K[6]`` at ``yn``), error estimates into ``err``."""
     for q in range(4):  # (h a21) k1, as Dormand & Prince's second stage is written
-        yn[q] = y[q] + h * _A[1, 0] * K[0, q]
+        yn[q] = y[q] + h * DP5_A[1, 0] * K[0, q]
     shell_rhs(yn, law, K[1])
     for i in range(2, 7):
         for q in range(4):
-            acc = _A[i, 0] * K[0, q]
+            acc = DP5_A[i, 0] * K[0, q]
             for j in range(1, i):
-                acc += _A[i, j] * K[j, q]
+                acc += DP5_A[i, j] * K[j, q]
             yn[q] = y[q] + h * acc
         shell_rhs(yn, law, K[i])
     for q in range(4):
-        acc = _E[0] * K[0, q]
+        acc = DP5_E[0] * K[0, q]
         for j in range(1, 7):
-            acc += _E[j] * K[j, q]
+            acc += DP5_E[j] * K[j, q]
         err[q] = h * acc
 
 
