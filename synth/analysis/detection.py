@@ -47,48 +47,73 @@ def frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
 
 @compiled(nogil=True)
 def _frame_energies(z, hop, w):  # pragma: no cover - compiled
+    squares = z * z
     n = (z.size - w) // hop + 1
     out = np.empty(n)
     for k in range(n):
-        out[k] = _pairwise_squares(z, k * hop, w)
+        out[k] = pairwise_sum(squares, k * hop, w)
     return out
 
 
 @compiled(nogil=True)
-def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
-    """``sum(z[start:start+n]**2)`` in numpy's pairwise summation order."""
+def pairwise_sum(a, start, n):  # pragma: no cover - compiled
+    """numpy's pairwise ``sum(a[start:start+n])`` (as ``numpy.trace``) on a stack: a cached
+    recursive kernel fails to load when called by another."""
+    starts = np.empty(64, dtype=np.int64)
+    sizes = np.empty(64, dtype=np.int64)
+    phase = np.zeros(64, dtype=np.int64)  # 0: new, 1: waiting for its left half, 2: right
+    left = np.empty(64)
+    top = 0
+    starts[0], sizes[0] = start, n
+    result = 0.0
+    while top >= 0:
+        s, m = starts[top], sizes[top]
+        if m > 128:
+            half = m // 2
+            half -= half % 8
+            phase[top] = 1
+            top += 1
+            starts[top], sizes[top], phase[top] = s, half, 0
+            continue
+        result = _pairwise_leaf(a, s, m)
+        top -= 1
+        while top >= 0:
+            if phase[top] == 1:
+                left[top] = result
+                phase[top] = 2
+                half = sizes[top] // 2
+                half -= half % 8
+                starts[top + 1] = starts[top] + half
+                sizes[top + 1] = sizes[top] - half
+                phase[top + 1] = 0
+                top += 1
+                break
+            result = left[top] + result
+            top -= 1
+    return result
+
+
+@compiled(nogil=True)
+def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
+    """numpy's pairwise sum of ``a[start:start+n]``, ``n <= 128``."""
     if n < 8:
         res = 0.0
         for i in range(start, start + n):
-            res += z[i] ** 2
+            res += a[i]
         return res
-    if n <= 128:
-        s0, s1, s2, s3 = z[start] ** 2, z[start + 1] ** 2, z[start + 2] ** 2, z[start + 3] ** 2
-        s4, s5, s6, s7 = z[start + 4] ** 2, z[start + 5] ** 2, z[start + 6] ** 2, z[start + 7] ** 2
-        i = start + 8
-        top = start + n - n % 8
-        while i < top:
-            s0, s1, s2, s3 = (
-                s0 + z[i] ** 2,
-                s1 + z[i + 1] ** 2,
-                s2 + z[i + 2] ** 2,
-                s3 + z[i + 3] ** 2,
-            )
-            s4, s5, s6, s7 = (
-                s4 + z[i + 4] ** 2,
-                s5 + z[i + 5] ** 2,
-                s6 + z[i + 6] ** 2,
-                s7 + z[i + 7] ** 2,
-            )
-            i += 8
-        res = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
-        while i < start + n:
-            res += z[i] ** 2
-            i += 1
-        return res
-    half = n // 2
-    half -= half % 8
-    return _pairwise_squares(z, start, half) + _pairwise_squares(z, start + half, n - half)
+    r0, r1, r2, r3 = a[start], a[start + 1], a[start + 2], a[start + 3]
+    r4, r5, r6, r7 = a[start + 4], a[start + 5], a[start + 6], a[start + 7]
+    i = start + 8
+    top = start + n - n % 8
+    while i < top:
+        r0, r1, r2, r3 = r0 + a[i], r1 + a[i + 1], r2 + a[i + 2], r3 + a[i + 3]
+        r4, r5, r6, r7 = r4 + a[i + 4], r5 + a[i + 5], r6 + a[i + 6], r7 + a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < start + n:
+        res += a[i]
+        i += 1
+    return res
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot, solve_general
-from synth.analysis.detection import delay, frame_energies
+from synth.analysis.detection import delay, frame_energies, pairwise_sum
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import (
     ANCHOR_DB,
@@ -254,7 +254,7 @@ def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - c
             for q in range(P):
                 Gs[r, q] = G[idx[r], idx[q]]
             diag[r] = Gs[r, r]
-        load = 1e-12 * _pairwise_sum(diag, 0, P) / P + 1e-300
+        load = 1e-12 * pairwise_sum(diag, 0, P) / P + 1e-300
         for r in range(P):
             Gs[r, r] += load
         h = np.linalg.solve(Gs, b[idx])
@@ -270,67 +270,6 @@ def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - c
         if best < 0 or crit < best_length:
             best, best_length, best_h, best_res = c, crit, h, res
     return best, best_length, best_h, best_res
-
-
-@compiled(nogil=True)
-def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
-    """numpy's pairwise ``sum(a[start:start+n])`` (as ``numpy.trace``) on a stack: a cached
-    recursive kernel fails to load when called by another."""
-    starts = np.empty(64, dtype=np.int64)
-    sizes = np.empty(64, dtype=np.int64)
-    phase = np.zeros(64, dtype=np.int64)  # 0: new, 1: waiting for its left half, 2: right
-    left = np.empty(64)
-    top = 0
-    starts[0], sizes[0] = start, n
-    result = 0.0
-    while top >= 0:
-        s, m = starts[top], sizes[top]
-        if m > 128:
-            half = m // 2
-            half -= half % 8
-            phase[top] = 1
-            top += 1
-            starts[top], sizes[top], phase[top] = s, half, 0
-            continue
-        result = _pairwise_leaf(a, s, m)
-        top -= 1
-        while top >= 0:
-            if phase[top] == 1:
-                left[top] = result
-                phase[top] = 2
-                half = sizes[top] // 2
-                half -= half % 8
-                starts[top + 1] = starts[top] + half
-                sizes[top + 1] = sizes[top] - half
-                phase[top + 1] = 0
-                top += 1
-                break
-            result = left[top] + result
-            top -= 1
-    return result
-
-
-@compiled(nogil=True)
-def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
-    """numpy's pairwise sum of ``a[start:start+n]``, ``n <= 128``."""
-    if n < 8:
-        res = 0.0
-        for i in range(start, start + n):
-            res += a[i]
-        return res
-    r0, r1, r2, r3 = a[start], a[start + 1], a[start + 2], a[start + 3]
-    r4, r5, r6, r7 = a[start + 4], a[start + 5], a[start + 6], a[start + 7]
-    i = start + 8
-    top = start + n - n % 8
-    while i < top:
-        r0, r1, r2, r3 = r0 + a[i], r1 + a[i + 1], r2 + a[i + 2], r3 + a[i + 3]
-        r4, r5, r6, r7 = r4 + a[i + 4], r5 + a[i + 5], r6 + a[i + 6], r7 + a[i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < start + n:
-        res += a[i]
-        i += 1
-    return res
 
 
 @compiled(nogil=True)
