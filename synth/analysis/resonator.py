@@ -63,16 +63,10 @@ class ResonatorResidual(Residual):
     """Step 7's residual: ticks modelled on up to :data:`MAX_TEMPLATES` templates, and ``expect``,
     what each model should leave (energy per sample)."""
 
-    def __init__(
-        self,
-        r: np.ndarray,
-        template: np.ndarray,
-        start: int,
-        settings: Settings,
-        floor: float,
-        noise: float,
-    ):
-        super().__init__(r, template, start, settings, floor, noise)
+    def __init__(self, r: np.ndarray, template: np.ndarray, start: int, settings: Settings,
+                 *levels: float):  # fmt: skip
+        """As :class:`Residual`'s (``levels``: its ``floor`` and ``noise``)."""
+        super().__init__(r, template, start, settings, *levels)
         self.expect = np.zeros_like(r)
         self.post_long = max(self.post, int(round(RESONATOR_POST * settings.samplerate)))
 
