@@ -270,6 +270,27 @@ class MemoryCache:
             self._items.move_to_end(key)
             return value
 
+    def fetch(self, key: str | None, compute, *, load=None, save=None, usable=None):
+        """The result of ``key``: held (if ``usable``), else ``load(key)`` from disk (None:
+        absent), else ``compute()``, held and ``save(result, key)``; ``key`` None: computed,
+        nothing held nor stored."""
+        value = None if key is None else self.get(key, usable)
+        if value is None and key is not None and load is not None:
+            value = load(key)
+            if value is not None and (usable is None or usable(value)):
+                self.put(key, value, source="disk")
+                return value
+            value = None
+        if value is None:
+            value = compute()
+            if key is None:
+                self.count("computed")
+            else:
+                self.put(key, value, source="computed")
+                if save is not None:
+                    save(value, key)
+        return value
+
     def put(self, key: str, value, *, source: str) -> None:
         """Hold ``value`` for ``key`` from ``source`` ("computed" or "disk", counted)."""
         with self._lock:

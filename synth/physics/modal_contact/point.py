@@ -267,14 +267,12 @@ def band_modes(plate: Plate, max_frequency: float):
     """Modes of ``plate`` to ``max_frequency`` (Hz), of exactly that band, held in memory."""
     from synth.physics.modes import modes as plate_modes
 
-    key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)
-    held = _BAND_MODES.get(key)
-    if held is None:
+    def solved():
         held = plate_modes(plate, max_frequency=max_frequency)
-        if not held.solved_for_band:
-            held = plate_modes(plate, max_frequency=max_frequency, cache=False)
-        _BAND_MODES.put(key, held, source="computed")
-    return held
+        return held if held.solved_for_band else plate_modes(plate, max_frequency=max_frequency,
+                                                              cache=False)  # fmt: skip
+
+    return _BAND_MODES.fetch(json.dumps(_plate_key(plate, max_frequency), sort_keys=True), solved)
 
 
 def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:

@@ -83,26 +83,12 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
 
 def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
     """The converged solution of band ``omega_req``: from memory, disk or solved (same arrays)."""
-    if not cache:
-        sol = solve_ritz(boundary, nu, aspect, omega_req)
-        CACHE.count("computed")
-        return sol
-    key = band_key(boundary, nu, aspect, omega_req)
-
-    def solved_for(held):
-        return held.omega_max == omega_req
-
-    sol = CACHE.get(key, solved_for)
-    if sol is not None:
-        return sol
-    sol = _load(key, boundary, nu, aspect)
-    if sol is not None and solved_for(sol):
-        CACHE.put(key, sol, source="disk")
-        return sol
-    sol = solve_ritz(boundary, nu, aspect, omega_req)
-    CACHE.put(key, sol, source="computed")
-    _save(sol, key)
-    return sol
+    return CACHE.fetch(
+        band_key(boundary, nu, aspect, omega_req) if cache else None,
+        lambda: solve_ritz(boundary, nu, aspect, omega_req),
+        load=lambda key: _load(key, boundary, nu, aspect), save=_save,
+        usable=lambda held: held.omega_max == omega_req,
+    )  # fmt: skip
 
 
 def band_key(boundary: str, nu: float, aspect: float, omega_req: float) -> str:

@@ -96,19 +96,11 @@ def plate_gains(modes, listener_position, s, *, full_output=False, cache=True, *
         problem = _problem(modes, listener, q_s, checked)
         rule = choose_rule(problem).rule
 
-    key = gains_key(modes, listener, q_s, checked, type(rule).__name__) if cache else None
-    result = None if key is None else CACHE.get(key)
-    if result is None and key is not None:
-        result = load_gains(key, q_s.size)
-        if result is not None:
-            CACHE.put(key, result, source="disk")
-    if result is None:
-        result = frozen(rule.gains(modes, listener, q_s, checked.keywords()))
-        if key is None:
-            CACHE.count("computed")
-        else:
-            CACHE.put(key, result, source="computed")
-            save_gains(result, key)
+    result = CACHE.fetch(
+        gains_key(modes, listener, q_s, checked, type(rule).__name__) if cache else None,
+        lambda: frozen(rule.gains(modes, listener, q_s, checked.keywords())),
+        load=lambda key: load_gains(key, q_s.size), save=save_gains,
+    )  # fmt: skip
     return gains_of(result, "plate_gains", checked.tol, full_output)
 
 
