@@ -381,6 +381,43 @@ os._exit(0)
 """
 
 
+def test_a_stop_held_up_past_its_timeout_still_fades_and_closes(jack, scene, monkeypatch):
+    # the process is held up as stop() begins (a stalled machine: its clock jumps 2.5 s, past
+    # the 2 s timeout, while the server had no chance to call back): the stall does not count
+    # against the server, so the stop fades as always, closes, and the engine stays usable
+    import synth.live.engine as live_engine
+
+    fade = 0.01
+    engine = synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, record_seconds=1.0, fade=fade
+    )
+    engine.add(scene.plate, listener=scene.listener, gain=0.1).hit(scene.ball, 1.0, at=0.05)
+    looks = []
+
+    class HeldUp:
+        """The time module as stop() sees it: 2.5 s later from its second look on."""
+
+        def __getattr__(self, name):
+            return getattr(time, name)
+
+        def monotonic(self):
+            looks.append(None)
+            return time.monotonic() + (2.5 if len(looks) > 1 else 0.0)
+
+    engine.start()
+    assert wait_for(lambda: engine.time > 0.2, 10.0)
+    monkeypatch.setattr(live_engine, "time", HeldUp())
+    engine.stop(timeout=2.0)
+    monkeypatch.undo()
+    assert len(looks) > 2 and not engine.running and engine.failed is None
+    start = fade_frame(engine)
+    out = engine.recording[:, 0]
+    assert 0 < start < engine.recorded and np.any(out[:start])
+    assert not np.any(out[start + int(fade * FS) : engine.recorded])  # faded, then silent
+    assert client_ports(jack) == []
+    assert engine.process(BLOCK).shape == (BLOCK, 1)  # usable: no SynthError
+
+
 @pytest.mark.slow  # a new process imports the package and loads the engine's kernels
 def test_stop_is_bounded_when_the_server_dies():
     # PortAudio's stop waits for the JACK server for ever once it is gone: stop(timeout=)
