@@ -121,6 +121,13 @@ def _check_checkout_packages():
             )
 
 
+def python_blocks(page: str) -> list[str]:
+    """The Python code blocks (```python fences) of the Markdown file ``page`` (a path from
+    the repository's root), in order: the examples users copy."""
+    text = (REPOSITORY / page).read_text()
+    return [part.split("```", 1)[0] for part in text.split("```python")[1:]]
+
+
 def _damage(path, how, array=None):
     """Damage the cache file ``path`` (``.npz``) in one of the ways a reader must survive:
     ``garbage`` (not an npz file), ``truncate`` (half of it), ``wrong-key`` (another key

@@ -8,6 +8,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+import pytest
+
 import synth
 
 PACKAGE = Path(synth.__file__).parent
@@ -99,7 +101,11 @@ def _imports(module: str, path: Path) -> list[Import]:
     return found
 
 
-IMPORTS = [i for m, p in sorted(MODULES.items()) for i in _imports(m, p)]
+@pytest.fixture(scope="module")
+def imports() -> list[Import]:
+    """Every import of every module of the package, parsed once for the module's tests (a
+    fixture: collecting them parses nothing)."""
+    return [i for m, p in sorted(MODULES.items()) for i in _imports(m, p)]
 
 
 def _layer(module: str) -> int:
@@ -113,10 +119,10 @@ def test_every_module_has_a_layer():
     assert tops - set().union(*LAYERS) == set()
 
 
-def test_no_module_imports_a_layer_above_its_own():
+def test_no_module_imports_a_layer_above_its_own(imports):
     upward = [
         f"{i.source}:{i.line} imports {i.target}"
-        for i in IMPORTS
+        for i in imports
         if i.target.split(".")[0] == "synth" and _layer(i.target) > _layer(i.source)
     ]
     assert upward == []
@@ -155,20 +161,20 @@ def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
-def test_no_import_circle():
+def test_no_import_circle(imports):
     # Among the imports a module runs when it loads: a circle makes the result depend on
     # which module is imported first.
     graph: dict[str, set[str]] = {m: set() for m in MODULES}
-    for i in IMPORTS:
+    for i in imports:
         if i.at_load and i.target in MODULES and i.target != i.source:
             graph[i.source].add(i.target)
     assert _circles(graph) == []
 
 
-def test_no_private_name_crosses_modules():
+def test_no_private_name_crosses_modules(imports):
     private = [
         f"{i.source}:{i.line} imports {i.target}.{i.name}"
-        for i in IMPORTS
+        for i in imports
         if i.target.split(".")[0] == "synth"
         and (i.name or i.target.rsplit(".", 1)[-1]).startswith("_")
         and not (i.name or i.target.rsplit(".", 1)[-1]).startswith("__")
@@ -176,12 +182,12 @@ def test_no_private_name_crosses_modules():
     assert private == []
 
 
-def test_the_package_imports_nothing_beside_it():
+def test_the_package_imports_nothing_beside_it(imports):
     # The engine runs from an installed copy: no module imports the benchmarks or the thesis
     # study (synth bench finds them in a checkout at run time, by name).
     beside = [
         f"{i.source}:{i.line} imports {i.target}"
-        for i in IMPORTS
+        for i in imports
         if i.target.split(".")[0] in BESIDE
     ]
     assert beside == []

@@ -11,6 +11,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from conftest import python_blocks
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,6 +32,31 @@ def ruff() -> list[str]:
 def test_ruff(args):
     done = subprocess.run(ruff() + args, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+#: The Markdown pages whose Python blocks users copy.
+DOC_PAGES = ["README.md", *sorted(f"docs/{p.name}" for p in (ROOT / "docs").glob("*.md"))]
+
+
+@pytest.mark.parametrize("page", DOC_PAGES)
+def test_the_python_blocks_of_the_docs_pass_ruff(page):
+    # each block is checked and format-checked as a module of the repository would be (the
+    # project's config; its name says where it is: PAGE.N.py, N from 0)
+    findings = []
+    for i, code in enumerate(python_blocks(page)):
+        name = f"{page}.{i}.py"
+        for args in (["check", "--output-format", "concise"], ["format", "--diff"]):
+            done = subprocess.run(
+                ruff() + args + ["--stdin-filename", name, "-"],
+                input=code.lstrip("\n"),
+                cwd=ROOT,
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            if done.returncode != 0:
+                findings.append(done.stdout + done.stderr)
+    assert not findings, "\n".join(findings)
 
 
 #: The rules on a function's size and arguments, whose stated exceptions are the kernels.

@@ -7,10 +7,11 @@ import re
 import signal
 import threading
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from conftest import REPOSITORY
+from conftest import REPOSITORY, python_blocks
 
 import synth
 from benchmarks.jack import JackDummyServer, jackd_available
@@ -380,6 +381,43 @@ os._exit(0)
 """
 
 
+def test_a_stop_held_up_past_its_timeout_still_fades_and_closes(jack, scene, monkeypatch):
+    # the process is held up as stop() begins (a stalled machine: its clock jumps 2.5 s, past
+    # the 2 s timeout, while the server had no chance to call back): the stall does not count
+    # against the server, so the stop fades as always, closes, and the engine stays usable
+    import synth.live.engine as live_engine
+
+    fade = 0.01
+    engine = synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, record_seconds=1.0, fade=fade
+    )
+    engine.add(scene.plate, listener=scene.listener, gain=0.1).hit(scene.ball, 1.0, at=0.05)
+    looks = []
+
+    class HeldUp:
+        """The time module as stop() sees it: 2.5 s later from its second look on."""
+
+        def __getattr__(self, name):
+            return getattr(time, name)
+
+        def monotonic(self):
+            looks.append(None)
+            return time.monotonic() + (2.5 if len(looks) > 1 else 0.0)
+
+    engine.start()
+    assert wait_for(lambda: engine.time > 0.2, 10.0)
+    monkeypatch.setattr(live_engine, "time", HeldUp())
+    engine.stop(timeout=2.0)
+    monkeypatch.undo()
+    assert len(looks) > 2 and not engine.running and engine.failed is None
+    start = fade_frame(engine)
+    out = engine.recording[:, 0]
+    assert 0 < start < engine.recorded and np.any(out[:start])
+    assert not np.any(out[start + int(fade * FS) : engine.recorded])  # faded, then silent
+    assert client_ports(jack) == []
+    assert engine.process(BLOCK).shape == (BLOCK, 1)  # usable: no SynthError
+
+
 @pytest.mark.slow  # a new process imports the package and loads the engine's kernels
 def test_stop_is_bounded_when_the_server_dies():
     # PortAudio's stop waits for the JACK server for ever once it is gone: stop(timeout=)
@@ -414,13 +452,6 @@ def test_stop_is_bounded_when_the_server_dies():
     assert lines[3].startswith("refused:") and "failed" in lines[3]
 
 
-def _python_blocks(path):
-    from pathlib import Path
-
-    text = (Path(__file__).resolve().parent.parent / path).read_text()
-    return [part.split("```", 1)[0] for part in text.split("```python")[1:]]
-
-
 @pytest.mark.parametrize(
     "path, index", [("README.md", 1), ("docs/live.md", 0)], ids=["readme", "live.md"]
 )
@@ -430,7 +461,7 @@ def test_the_live_examples_run_as_printed(jack, path, index, monkeypatch, capsys
     import sounddevice
 
     monkeypatch.setattr(sounddevice.default, "device", [None, jack.device])
-    code = _python_blocks(path)[index]
+    code = python_blocks(path)[index]
     assert "synth.Engine(" in code and "process(" in code
     namespace = {}
     exec(compile(code, path, "exec"), namespace)
@@ -725,16 +756,63 @@ def test_the_limiter_holds_the_ceiling_on_the_stream_as_process_does(jack, scene
     assert stats.impacts_late == 0 and late is not None
 
 
-def assert_ramped_in_one_block(live, before, after, seconds):
-    """``live`` (a stream's recording of ``seconds``) is ``before`` up to one block, that
-    block ramps linearly (old + u (new - old)) to ``after``, which it is from the next
-    block on; the change came between 0.2 s and the last 0.1 s. Tolerance: two float32
-    steps at the larger peak (the stream and process() mix alike, rounded to float32)."""
+#: The ramp tests' hits: one every RAMP_HITS_EVERY s from 0.05 s to RAMP_RECORD s, queued
+#: before the stream starts (start() transforms them), so that a change lands on a ringing
+#: plate whenever the calling thread gets it done (a move computes its gains there, 0.3 s of
+#: CPU for two ears of the default plate, and a loaded machine gives that thread a fraction
+#: of a core). A hit's sound falls by about 70 dB in RAMP_HITS_EVERY, far above the
+#: tolerance; a voice rings about a second, so fewer than the body's 8 slots ring at once
+#: and no voice is stolen; 100 hits fit the body's max_pending
+RAMP_HITS_EVERY = 0.3
+#: The ramp tests' recording, s: the longest the change may take to be handed over.
+RAMP_RECORD = 30.0
+
+
+@dataclass(frozen=True)
+class LiveChange:
+    """A stream's recording up to its stop fade, around a change made from another thread
+    while it ran: the engine's clock (frames) read just before the change and just after."""
+
+    live: np.ndarray
+    called: int
+    returned: int
+
+
+def ramp_hits(body, ball):
+    """Queue the ramp tests' hits on ``body`` (see :data:`RAMP_HITS_EVERY`)."""
+    for at in np.arange(0.05, RAMP_RECORD, RAMP_HITS_EVERY):
+        assert body.hit(ball, 1.0, at=float(at)) is not None
+
+
+def change_while_running(engine, change) -> LiveChange:
+    """Start ``engine``'s stream, call ``change()`` once its clock has passed 0.2 s and stop
+    it 0.2 s of its clock after the call returned."""
+    with engine:
+        assert wait_for(lambda: engine.time > 0.2, 10.0)
+        called = round(engine.time * FS)
+        change()
+        returned = round(engine.time * FS)
+        assert wait_for(lambda: engine.time * FS > returned + 0.2 * FS, 10.0)
+    end = fade_frame(engine)
+    assert 0 < end <= engine.recorded, (end, engine.recorded, engine.stats)
+    return LiveChange(engine.recording[:end].copy(), called, returned)
+
+
+def assert_ramped_in_one_block(change: LiveChange, before, after):
+    """``change.live`` is ``before`` up to one block, that block ramps linearly (old + u (new -
+    old)) to ``after``, which it is from the next block on; the block that ramps is the first
+    to start after the change was handed over: not before the clock read before the call, at
+    most one block after the clock read after it (a block may have begun meanwhile).
+    Tolerance: two float32 steps at the larger peak (the stream and process() mix alike,
+    rounded to float32)."""
+    live = change.live
+    before, after = before[: live.shape[0]], after[: live.shape[0]]
     tol = 2 * float(np.spacing(np.float32(max(np.abs(before).max(), np.abs(after).max()))))
     differs = np.abs(live - before).max(axis=1) > tol
-    first = int(np.argmax(differs))
-    assert differs.any() and FS * 0.2 <= first < FS * (seconds - 0.1)
-    k = first // BLOCK  # the block that took the change
+    assert differs.any(), "the change never reached the output"
+    k = int(np.argmax(differs)) // BLOCK  # the block that took the change
+    assert change.called <= k * BLOCK <= change.returned + BLOCK, (k * BLOCK, change)
+    assert live.shape[0] >= (k + 1) * BLOCK + FS // 10  # a tenth of a second after it
     np.testing.assert_allclose(live[: k * BLOCK], before[: k * BLOCK], rtol=0, atol=tol)
     u = (np.arange(1, BLOCK + 1) / BLOCK)[:, None]
     span = slice(k * BLOCK, (k + 1) * BLOCK)
@@ -743,32 +821,50 @@ def assert_ramped_in_one_block(live, before, after, seconds):
     np.testing.assert_allclose(live[(k + 1) * BLOCK :], after[(k + 1) * BLOCK :], rtol=0, atol=tol)
 
 
+def ramp_engine(scene, listener, pan=None, **options):
+    """A stereo engine (``options``) of one body of the default plate heard by ``listener``
+    at ``pan``, the ramp tests' hits queued; returns the engine and the body."""
+    engine = synth.Engine(samplerate=FS, blocksize=BLOCK, channels=2, floor_db=-200.0, **options)
+    body = engine.add(scene.plate, listener=listener, pan=pan)
+    ramp_hits(body, scene.ball)
+    return engine, body
+
+
+def assert_a_change_while_running_ramps(jack, make, change, load=None):
+    """The stream of the engine ``make(**options)`` returns (with its body; ``load(engine)``
+    called before it starts), changed by ``change(engine, body)`` while it runs, ramps in one block
+    (:func:`assert_ramped_in_one_block`) from process() of the same engine unchanged to
+    process() of it changed after its first block, which is silent and transforms the
+    queued hits as start() does: their in-contact samples are heard by the listener of
+    then, their ringing by the new one."""
+    engine, body = make(device=jack.device, record_seconds=RAMP_RECORD)
+    if load is not None:
+        load(engine)
+    live = change_while_running(engine, lambda: change(engine, body))
+    frames = live.live.shape[0]
+    before = make()[0].process(frames)
+    engine, body = make()
+    first = engine.process(BLOCK)
+    assert not np.any(first)
+    change(engine, body)
+    assert_ramped_in_one_block(
+        live, before, np.concatenate([first, engine.process(frames - BLOCK)])
+    )
+
+
 def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, scene):
-    # the game moves its listener while a hit rings: the samples the callback sent are the
-    # old listener's render up to one block, that block ramps every mode's gain linearly
-    # (old + u (new - old)), and from the next block on they are the new listener's render
-    old = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
-    new = synth.live.ears((0.3, 0.5, 0.3), (1.0, 0.0))
-    seconds = 1.2  # the move, made at 0.2 s, computes its gains on this thread meanwhile
+    # the game moves its listener while hits ring: the samples the callback sent are the
+    # old listener's render up to one block, that block (the first after the move was
+    # handed over) ramps every mode's gain linearly (old + u (new - old)) at both ears,
+    # and from the next block on they are the new listener's render
+    def make(**options):
+        return ramp_engine(scene, synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0)), **options)
 
-    def render(listener):
-        engine = synth.Engine(samplerate=FS, blocksize=BLOCK, channels=2, floor_db=-200.0)
-        engine.add(scene.plate, listener=listener).hit(scene.ball, 1.0, at=0.05)
-        return engine.process(int(seconds * FS))
-
-    before, after = render(old), render(new)
-    engine = synth.Engine(
-        samplerate=FS, blocksize=BLOCK, device=jack.device, channels=2, floor_db=-200.0,
-        record_seconds=seconds,
-    )  # fmt: skip
-    body = engine.add(scene.plate, listener=old)
-    engine.prepare_moves()  # as a game at load time: the move below takes the sums alone
-    with engine:
-        body.hit(scene.ball, 1.0, at=0.05)
-        assert wait_for(lambda: engine.time > 0.2, 10.0)
+    def move(engine, body):
         engine.move_listener((0.3, 0.5, 0.3), facing=(1.0, 0.0))
-        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
-    assert_ramped_in_one_block(engine.recording, before, after, seconds)
+
+    # as a game at load time: the move takes the sums alone
+    assert_a_change_while_running_ramps(jack, make, move, load=synth.Engine.prepare_moves)
 
 
 def test_a_device_without_the_engine_s_rate_is_refused_naming_both_rates(jack, scene):
@@ -785,28 +881,16 @@ def test_a_device_without_the_engine_s_rate_is_refused_naming_both_rates(jack, s
 
 def test_a_pan_set_while_the_stream_runs_ramps_within_one_block(jack, scene):
     # a body panned at -0.6 rings; the game pans it to 0.8 while the stream runs: the
-    # samples the callback sent are process()'s at -0.6 up to one block, that block ramps
-    # each channel's gain linearly (old + u (new - old)), and from the next block on they
-    # are process()'s at 0.8
-    seconds = 0.6
+    # samples the callback sent are process()'s at -0.6 up to one block, that block (the
+    # first after the pan was set) ramps each channel's gain linearly (old + u (new - old)),
+    # and from the next block on they are process()'s at 0.8
+    def make(**options):
+        return ramp_engine(scene, scene.listener, pan=-0.6, **options)
 
-    def render(pan):
-        engine = synth.Engine(samplerate=FS, blocksize=BLOCK, channels=2, floor_db=-200.0)
-        engine.add(scene.plate, listener=scene.listener, pan=pan).hit(scene.ball, 1.0, at=0.05)
-        return engine.process(int(seconds * FS))
-
-    before, after = render(-0.6), render(0.8)
-    engine = synth.Engine(
-        samplerate=FS, blocksize=BLOCK, device=jack.device, channels=2, floor_db=-200.0,
-        record_seconds=seconds,
-    )  # fmt: skip
-    body = engine.add(scene.plate, listener=scene.listener, pan=-0.6)
-    with engine:
-        body.hit(scene.ball, 1.0, at=0.05)
-        assert wait_for(lambda: engine.time > 0.2, 10.0)
+    def pan(engine, body):
         body.pan = 0.8
-        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
-    assert_ramped_in_one_block(engine.recording, before, after, seconds)
+
+    assert_a_change_while_running_ramps(jack, make, pan)
 
 
 def test_the_callback_timing_tells_a_gil_wait_from_the_callback_s_work(jack, scene):

@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 import pytest
+from conftest import python_blocks
 
 import synth
 from synth.errors import ParameterError
@@ -341,10 +342,7 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
 
 
 def test_the_rolling_example_of_the_docs_runs_as_printed():
-    from pathlib import Path
-
-    text = (Path(__file__).resolve().parent.parent / "docs" / "live.md").read_text()
-    code = [part.split("```", 1)[0] for part in text.split("```python")[1:]][1]
+    code = python_blocks("docs/live.md")[1]
     assert "floor.roll(" in code
     namespace = {}
     exec(compile(code, "docs/live.md", "exec"), namespace)

@@ -30,10 +30,15 @@ MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
 #: A dissipative time of the order that gives the 10 mm steel ball e = 0.76 on the 18 mm
 #: board's impedance at 1.4 m/s with the in-plane modulus (tests/test_contact_viscoelastic.py), s.
 A_MDF = 2.65e-6
-#: The elastic contact's band of tests/test_modal_contact.py (SMALL at 1 m/s), Hz: the modes
-#: of a band are solved once per process, and the viscoelastic contact, longer than the
-#: elastic one, is resolved by them at least as well as by its own 4 / tau.
-SMALL_BAND = mc.BAND_FACTOR / mc.impedance_contact_time(BALL, SMALL, 1.0)
+
+
+@pytest.fixture(scope="module")
+def small_band():
+    """The elastic contact's band of tests/test_modal_contact.py (SMALL at 1 m/s), Hz: the
+    modes of a band are solved once per process, and the viscoelastic contact, longer than
+    the elastic one, is resolved by them at least as well as by its own 4 / tau. A fixture:
+    collecting the tests solves no contact."""
+    return mc.BAND_FACTOR / mc.impedance_contact_time(BALL, SMALL, 1.0)
 
 
 def _dashpot_contact(point, steps=mc.STEPS_PER_CONTACT, A=A_MDF):
@@ -82,13 +87,13 @@ def test_step_convergence_order_is_three_halves(dashpot_point):
         assert 1.3 < p < 1.75, orders
 
 
-def test_energy_balance_with_a_ringing_plate():
+def test_energy_balance_with_a_ringing_plate(small_band):
     # Ball energy in = ball energy out + the plate's modes, modal damping, rigid body,
     # residual spring and dashpot + the viscoelastic loss Int (F - K delta^n) delta' dt: the
     # books close to 1e-5 of the energy exchanged (the trapezoid rule of the steps), from rest
     # and from a plate left ringing by a first impact.
     contact = mc.ModalContact.for_pair(
-        BALL, SMALL, (0.05, 0.03), max_frequency=SMALL_BAND, law="viscoelastic", viscous_time=A_MDF
+        BALL, SMALL, (0.05, 0.03), max_frequency=small_band, law="viscoelastic", viscous_time=A_MDF
     )
     assert contact.viscous_time == A_MDF and contact.dissipation == 0.0
     first = contact.solve(1.0)
@@ -98,7 +103,7 @@ def test_energy_balance_with_a_ringing_plate():
     assert later.energy_residual < 1e-5 and later.contact_loss > 0.0
 
 
-def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration():
+def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration(small_band):
     # At the steps the pulse is the solver's force (to rounding); between them it is the law
     # K (delta^(3/2) + (3/2) A delta^(1/2) delta') of a C1 interpolant of delta: its integral
     # is the impulse (1e-4: the trapezoid rule of the steps on a t^(1/2) onset) and its slope
@@ -106,7 +111,7 @@ def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration():
     # infinite slope and the switch-off's kink: 1e-3 of the largest slope). It rises like
     # t^(1/2), so the modal bank's extrapolation takes order 3/2.
     c = mc.ModalContact.for_pair(
-        BALL, SMALL, (0.05, 0.03), max_frequency=SMALL_BAND, law="viscoelastic", viscous_time=A_MDF
+        BALL, SMALL, (0.05, 0.03), max_frequency=small_band, law="viscoelastic", viscous_time=A_MDF
     )
     r = c.solve(1.0)
     assert r.pulse_order == 1.5 and r.law_viscous_time == A_MDF
@@ -128,7 +133,7 @@ def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration():
     assert before > 0.0 and after == 0.0
 
 
-def test_the_law_on_the_modal_plate_through_scene_and_scheduler():
+def test_the_law_on_the_modal_plate_through_scene_and_scheduler(small_band):
     # The modal plate takes the viscoelastic law: the scene's contact, the scheduler and the
     # scene's series carry A into every impact. The contact's surface is the default model's
     # "auto", which for a law other than Hertz is the ideal one (the law carries its own loss).
@@ -143,16 +148,16 @@ def test_the_law_on_the_modal_plate_through_scene_and_scheduler():
         contact_law="viscoelastic",
         viscous_time=A_MDF,
         max_impacts=3,
-        max_frequency=SMALL_BAND,
+        max_frequency=small_band,
     )
     assert len(seq) == 3
     assert all(i.result.law_viscous_time == A_MDF for i in seq.impacts)
     scene = Scene(BALL, SMALL, drop_height=0.05, contact=contact)
-    seq2 = simulate_scene(scene, max_impacts=3, max_frequency=SMALL_BAND)
+    seq2 = simulate_scene(scene, max_impacts=3, max_frequency=small_band)
     assert [i.time for i in seq2.impacts] == [i.time for i in seq.impacts]
 
 
-def test_the_measured_models_yield_on_the_modal_plate():
+def test_the_measured_models_yield_on_the_modal_plate(small_band):
     # A copper ball (annealed, Y = 69 MPa) on the board's fitted viscoelastic surface
     # (the measured model, surface "auto") yields above the law's V_y (Thornton's closed
     # form, contact_law.model_yield_speed); dropped at twice that speed, the modal contact
@@ -161,12 +166,12 @@ def test_the_measured_models_yield_on_the_modal_plate():
     # plate models gives the same rebound to within their difference on the elastic ideal
     # surface (about 1e-3 here; 1e-2 allowed), and the energy balance, plastic work
     # included, closes to the fixed-step scheme's accuracy (invariant). The thesis' ideal
-    # surface stays elastic. The band is SMALL_BAND, whose modes the other tests solved.
+    # surface stays elastic. The band is small_band, whose modes the other tests solved.
     copper = Ball("copper", 0.005)
     v_y = model_yield_speed(copper, SMALL, None, "auto")
     law = contact_parameters(copper, SMALL, "hertz", surface="auto")
     run = dict(drop_height=(2.0 * v_y) ** 2 / (2.0 * GRAVITY), max_impacts=2)
-    modal = dict(plate_model="modal", max_frequency=SMALL_BAND)
+    modal = dict(plate_model="modal", max_frequency=small_band)
     first = simulate_bounces(copper, SMALL, surface="auto", **run, **modal)[0]
     assert first.speed > v_y
     assert first.result.law_yield_penetration == law.yield_penetration

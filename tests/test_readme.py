@@ -4,6 +4,8 @@ import re
 import subprocess
 from pathlib import Path
 
+from conftest import python_blocks
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -46,8 +48,7 @@ def test_main_job_renders_a_shipped_preset():
 
 
 def _api_example():
-    text = (ROOT / "README.md").read_text()
-    return text.split("```python", 1)[1].split("```", 1)[0]
+    return python_blocks("README.md")[0]
 
 
 def test_readme_is_short():

@@ -14,26 +14,31 @@ from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound.modal_bank import Bank, synthesize
 from synth.sound.render import render
 
-#: The default scene under the thesis' model (Hertz pulses; the measured model's viscoelastic
-#: pulse is checked in tests/test_contact_viscoelastic.py).
-DEFAULT = synth.load_preset("default", ["contact.model=thesis"])
+
+@pytest.fixture(scope="module")
+def default():
+    """The default scene under the thesis' model (Hertz pulses; the measured model's
+    viscoelastic pulse is checked in tests/test_contact_viscoelastic.py)."""
+    return synth.load_preset("default", ["contact.model=thesis"])
+
+
 EXACT = dict(normalize="none", floor_db=-200.0, fade=0.0)  # no omission, no fade
 
 
-def accel_scene(**kw):
+def accel_scene(base, **kw):
     return Scene(
-        DEFAULT.ball,
-        DEFAULT.plate,
+        base.ball,
+        base.plate,
         drop_height=0.1,
-        position=DEFAULT.position,
+        position=base.position,
         listener=Accelerometer((0.5, 0.2)),
         **kw,
     )
 
 
 @pytest.fixture(scope="module")
-def default_render():
-    return render(DEFAULT, samplerate=48000)
+def default_render(default):
+    return render(default, samplerate=48000)
 
 
 def test_render_default_preset(default_render):
@@ -60,21 +65,21 @@ def test_render_info_is_typed_and_settings_is_its_view(default_render):
         settings["peak_db"] = 0.0  # type: ignore[index]
 
 
-def test_render_takes_options_as_one_object():
+def test_render_takes_options_as_one_object(default):
     # render(scene, options=RenderOptions(...)) is render(scene, **fields): the same samples
     o = synth.RenderOptions(samplerate=8000, max_frequency=2000.0, max_tail=0.5, **EXACT)
-    a = render(accel_scene(), options=o)
-    b = render(accel_scene(), samplerate=8000, max_frequency=2000.0, max_tail=0.5, **EXACT)
+    a = render(accel_scene(default), options=o)
+    b = render(accel_scene(default), samplerate=8000, max_frequency=2000.0, max_tail=0.5, **EXACT)
     assert np.array_equal(a.audio, b.audio)
     assert a.info == dataclasses.replace(b.info, bank_seconds=a.info.bank_seconds)
-    c = render(accel_scene(), options=o, max_tail=0.01)  # a keyword changes one option
+    c = render(accel_scene(default), options=o, max_tail=0.01)  # a keyword changes one option
     assert c.info.options.max_tail == 0.01 and c.audio.size < a.audio.size
 
 
-def test_first_tick_is_causal_to_the_sample():
+def test_first_tick_is_causal_to_the_sample(default):
     # Nothing before the first touch reaches the listener: every sample before the onset
     # (first touch + travel time) is exactly 0, and the first sample after it is not.
-    r = render(accel_scene(), samplerate=48000, **EXACT)
+    r = render(accel_scene(default), samplerate=48000, **EXACT)
     t0 = r.onsets[0]
     first = math.ceil(t0 * r.samplerate)
     assert np.all(r.audio[:first] == 0.0)
@@ -82,12 +87,12 @@ def test_first_tick_is_causal_to_the_sample():
     assert t0 == pytest.approx(r.settings["preroll"], abs=1e-12)
 
 
-def test_each_impact_starts_at_its_onset():
+def test_each_impact_starts_at_its_onset(default):
     # Superposition: the audio of the first n impacts minus that of the first n-1 is impact
     # n's contribution, exactly 0 before its onset (to rounding, 1e-9 of the peak) and
     # present from the first sample after it: onsets placed to the sample (well within the
     # required 0.1 ms), for the first ten impacts.
-    scene = accel_scene()
+    scene = accel_scene(default)
     seq = synth.simulate_scene(scene)
     full = render(scene, samplerate=48000, sequence=seq, **EXACT)
     peak = np.max(np.abs(full.audio))
@@ -105,17 +110,17 @@ def test_each_impact_starts_at_its_onset():
         prev = r.audio.astype(float)
 
 
-def test_ringing_matches_the_continuous_response_at_subsample_onsets():
+def test_ringing_matches_the_continuous_response_at_subsample_onsets(default):
     # The bank samples the exact continuous-time ringing sum_k Re[C_k e^(p_k (t - t0))]:
     # with an onset 0.37 samples off the grid, samples after the contact agree with the
     # closed form to 1e-9 of the peak.
-    seq = synth.simulate_scene(DEFAULT, max_impacts=1)
+    seq = synth.simulate_scene(default, max_impacts=1)
     res = seq[0].result
-    modes = plate_modes.modes(DEFAULT.plate, max_frequency=5000.0)
+    modes = plate_modes.modes(default.plate, max_frequency=5000.0)
     sig = np.asarray(modes.decay_rates)
     wd = np.sqrt(np.asarray(modes.angular_frequencies) ** 2 - sig**2)
     poles = -sig + 1j * wd
-    b = modes.shapes(np.array([DEFAULT.position]))[0] / np.asarray(modes.modal_masses)
+    b = modes.shapes(np.array([default.position]))[0] / np.asarray(modes.modal_masses)
     out_gain = modes.shapes(np.array([[0.3, 0.1]]))[0] * poles**2
     fs = 48000.0
     t0 = (1000 + 0.37) / fs
@@ -129,19 +134,19 @@ def test_ringing_matches_the_continuous_response_at_subsample_onsets():
     assert np.max(np.abs(audio[s] - exact)) <= 1e-9 * np.max(np.abs(exact))
 
 
-def test_modal_energy_equals_energy_sent_into_plate():
+def test_modal_energy_equals_energy_sent_into_plate(default):
     # Energy balance between contact and modes: right after a mid-plate impact the modes
     # hold sum_k M_k |p_k A_k|^2 / 2, and the contact sent beta Int F^2 dt into the plate.
     # No wave returns from the edges during the 0.1 ms contact, so the two agree; 5 %
     # allows for the finite plate's rigid-body motion (not a bending mode) and for the
     # modes above 24 kHz.
-    res = synth.simulate_scene(DEFAULT, max_impacts=1)[0].result
-    modes = plate_modes.modes(DEFAULT.plate, max_frequency=24000.0)
+    res = synth.simulate_scene(default, max_impacts=1)[0].result
+    modes = plate_modes.modes(default.plate, max_frequency=24000.0)
     sig = np.asarray(modes.decay_rates)
     wd = np.sqrt(np.asarray(modes.angular_frequencies) ** 2 - sig**2)
     poles = -sig + 1j * wd
     M = np.asarray(modes.modal_masses)
-    b = modes.shapes(np.array([DEFAULT.position]))[0] / M
+    b = modes.shapes(np.array([default.position]))[0] / M
     amps = pulse_transforms(res, poles)
     A = -1j * b / wd * amps
     energy = 0.5 * np.sum(M * np.abs(poles * A) ** 2)
@@ -183,23 +188,23 @@ def test_pulse_transforms_against_adaptive_quadrature(preset):
         assert err <= (1e-7 if f <= 1000.0 else 2e-6), (preset, f, err)
 
 
-def test_samplerate_invariance_48_96():
+def test_samplerate_invariance_48_96(default):
     # Same band (modes to 20 kHz), no omission: the 96 kHz render sampled every other
     # sample is the 48 kHz render (the same continuous signal; 1e-6 of the peak).
-    a = render(accel_scene(), samplerate=48000, max_frequency=20000.0, **EXACT)
-    b = render(accel_scene(), samplerate=96000, max_frequency=20000.0, **EXACT)
+    a = render(accel_scene(default), samplerate=48000, max_frequency=20000.0, **EXACT)
+    b = render(accel_scene(default), samplerate=96000, max_frequency=20000.0, **EXACT)
     L = min(a.audio.size, b.audio[::2].size)
     peak = np.max(np.abs(a.audio))
     assert np.max(np.abs(a.audio[:L] - b.audio[::2][:L])) <= 1e-6 * peak
 
 
-def test_samplerate_invariance_44k1():
+def test_samplerate_invariance_44k1(default):
     # 44.1 kHz against 48 kHz, same band (modes to 15 kHz), no omission: both sample the
     # same continuous signal, so at the instants they share (every 147th sample at
     # 44.1 kHz is every 160th at 48 kHz: n / 300 s) they agree to 1e-6 of the peak (the
     # transforms' grids and the float32 output differ).
-    a = render(accel_scene(), samplerate=48000, max_frequency=15000.0, **EXACT)
-    b = render(accel_scene(), samplerate=44100, max_frequency=15000.0, **EXACT)
+    a = render(accel_scene(default), samplerate=48000, max_frequency=15000.0, **EXACT)
+    b = render(accel_scene(default), samplerate=44100, max_frequency=15000.0, **EXACT)
     assert a.settings["audio_start"] == pytest.approx(b.settings["audio_start"], abs=1e-15)
     n = min(a.audio.size // 160, b.audio.size // 147)
     xa = a.audio[::160][:n].astype(float)
@@ -209,20 +214,20 @@ def test_samplerate_invariance_44k1():
     assert np.max(np.abs(xa)) > 0.1 * peak
 
 
-def test_no_mode_at_or_above_nyquist():
+def test_no_mode_at_or_above_nyquist(default):
     # Alias-free by construction: at 8 kHz only modes below 4 kHz are rendered.
-    r = render(DEFAULT, samplerate=8000, normalize="none")
-    below = plate_modes.modes(DEFAULT.plate, max_frequency=4000.0 * (1 - 1e-9))
+    r = render(default, samplerate=8000, normalize="none")
+    below = plate_modes.modes(default.plate, max_frequency=4000.0 * (1 - 1e-9))
     assert r.settings["n_modes"] <= len(below)
     assert r.settings["max_frequency"] <= 4000.0
 
 
-def test_tick_energy_falls_by_e_squared():
+def test_tick_energy_falls_by_e_squared(default):
     # docs/physics.md, "Bounces": the tick energy falls by about e^2 per bounce. Each tick's energy
     # (its own contribution, by superposition) over the previous one's, against e^2 of
     # the impact between them, within 15 % (the pulse shortens as the speed falls, which
     # shifts the spectrum: "about").
-    scene = accel_scene()
+    scene = accel_scene(default)
     seq = synth.simulate_scene(scene, max_impacts=6)
     energies = []
     for i in range(5):
@@ -263,9 +268,9 @@ def test_settled_scene_renders():
         (dict(sequence="x"), "sequence"),
     ],
 )
-def test_render_rejects_bad_input(kw, word):
+def test_render_rejects_bad_input(kw, word, default):
     with pytest.raises(ParameterError, match=word):
-        render(DEFAULT, **{"samplerate": 48000, **kw})
+        render(default, **{"samplerate": 48000, **kw})
 
 
 def test_render_rejects_non_scene():
@@ -294,19 +299,19 @@ def test_omissions_stay_within_the_floor(preset, floor_db):
     assert cut.settings["mode_samples"] < full.settings["mode_samples"]
 
 
-def test_render_rejects_max_frequency_above_nyquist():
+def test_render_rejects_max_frequency_above_nyquist(default):
     with pytest.raises(ParameterError, match=r"max_frequency=30000.0 must be <= the Nyquist"):
-        render(DEFAULT, samplerate=48000, max_frequency=30000.0)
+        render(default, samplerate=48000, max_frequency=30000.0)
 
 
 @pytest.mark.slow
-def test_tail_cut_is_reported():
+def test_tail_cut_is_reported(default):
     # A steel plate (loss factor 1e-4) rings for tens of seconds: a 0.2 s max_tail cuts it,
     # and the render says so, with the bound of what rings on after the end.
     scene = synth.load_preset("steel-ball-on-steel-sheet")
     r = render(scene, samplerate=48000, max_tail=0.2, normalize="none")
     assert r.settings["tail_cut"] and r.settings["left_at_end"] > 10 ** (-80 / 20)
-    r = render(DEFAULT, samplerate=48000, normalize="none")
+    r = render(default, samplerate=48000, normalize="none")
     assert not r.settings["tail_cut"]
 
 

@@ -10,24 +10,27 @@ from synth.errors import ParameterError
 from synth.physics import contact
 from synth.stimuli import sequences as stimuli
 
-#: The thesis' stimuli (section 5.2) on the thesis' scene and model (e = 0.87).
-DEFAULT = synth.load_preset("default", ["contact.model=thesis"])
+
+@pytest.fixture(scope="module")
+def default():
+    """The scene of the thesis' stimuli (section 5.2): the thesis' scene and model (e = 0.87)."""
+    return synth.load_preset("default", ["contact.model=thesis"])
 
 
-def test_scale_one_is_the_physical_sequence():
+def test_scale_one_is_the_physical_sequence(default):
     # k = 1 leaves every tick as computed (exact).
-    a = synth.simulate_scene(DEFAULT)
-    b = stimuli.scaled_sequence(DEFAULT, 1.0)
+    a = synth.simulate_scene(default)
+    b = stimuli.scaled_sequence(default, 1.0)
     assert [i.time for i in a] == [i.time for i in b]
     assert [i.restitution for i in b] == [i.result.restitution for i in b]
 
 
 @pytest.mark.parametrize("k", [0.5, 2.0])
-def test_scaled_restitution_follows_the_thesis_rule(k):
+def test_scaled_restitution_follows_the_thesis_rule(k, default):
     # 1 - e' = k (1 - e) per tick, the next speed is e' v and the next time t + tau + 2 e' v / g
     # (rounding, 1e-12); each tick is still the physical impact at its own speed (its
     # contact equals solve_impact at that speed: the spectrum's physics is kept).
-    seq = stimuli.scaled_sequence(DEFAULT, k, max_impacts=8)
+    seq = stimuli.scaled_sequence(default, k, max_impacts=8)
     for a, b in zip(seq, seq[1:]):
         e = a.result.restitution
         assert a.restitution == pytest.approx(1 - k * (1 - e), rel=1e-12)
@@ -35,33 +38,33 @@ def test_scaled_restitution_follows_the_thesis_rule(k):
         assert b.time == pytest.approx(
             a.time + a.result.separation_time + 2 * b.speed / 9.81, rel=1e-12
         )
-    c = DEFAULT.contact
+    c = default.contact
     ref = contact.solve_impact(
-        DEFAULT.ball, DEFAULT.plate, seq[3].speed, position=DEFAULT.position, rtol=c.rtol
+        default.ball, default.plate, seq[3].speed, position=default.position, rtol=c.rtol
     )
     assert seq[3].result.restitution == pytest.approx(ref.restitution, rel=1e-12)
 
 
-def test_large_scale_stops_the_ball():
+def test_large_scale_stops_the_ball(default):
     # k >= 1 / (1 - e) gives e' <= 0: the ball does not leave the plate.
-    seq = stimuli.scaled_sequence(DEFAULT, 1.0 / (1.0 - 0.87) * 1.05)
+    seq = stimuli.scaled_sequence(default, 1.0 / (1.0 - 0.87) * 1.05)
     assert seq.stop_reason == "settled" and len(seq) == 1 and seq[0].restitution == 0.0
 
 
-def test_mismatch_keeps_timing_and_swaps_ticks():
+def test_mismatch_keeps_timing_and_swaps_ticks(default):
     # Times and speeds from the 19 mm ball's scene, contacts of the 10 mm ball at those
     # speeds (exact).
     timing = synth.load_preset("thesis-steel19-mdf18")
-    seq = stimuli.mismatch_sequence(timing, DEFAULT)
+    seq = stimuli.mismatch_sequence(timing, default)
     ref = synth.simulate_scene(timing)
     assert [i.time for i in seq] == [i.time for i in ref]
     assert [i.speed for i in seq] == [i.speed for i in ref]
     small = contact.solve_impact(
-        DEFAULT.ball,
-        DEFAULT.plate,
+        default.ball,
+        default.plate,
         ref[2].speed,
-        position=DEFAULT.position,
-        rtol=DEFAULT.contact.rtol,
+        position=default.position,
+        rtol=default.contact.rtol,
     )
     assert seq[2].result.contact_time == pytest.approx(small.contact_time, rel=1e-12)
     assert seq[2].result.contact_time < ref[2].result.contact_time
@@ -100,16 +103,16 @@ def test_cli_render_stimuli(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("bad", [-0.5, math.nan, math.inf])
-def test_scaled_sequence_rejects_bad_scale(bad):
+def test_scaled_sequence_rejects_bad_scale(bad, default):
     with pytest.raises(ParameterError, match="restitution_scale"):
-        stimuli.scaled_sequence(DEFAULT, bad)
+        stimuli.scaled_sequence(default, bad)
 
 
-def test_mismatch_sequence_rejects_non_scenes():
+def test_mismatch_sequence_rejects_non_scenes(default):
     with pytest.raises(ParameterError, match="timing_scene"):
-        stimuli.mismatch_sequence("default", DEFAULT)
+        stimuli.mismatch_sequence("default", default)
     with pytest.raises(ParameterError, match="spectrum_scene"):
-        stimuli.mismatch_sequence(DEFAULT, None)
+        stimuli.mismatch_sequence(default, None)
 
 
 def test_scaled_restitution_on_the_modal_plate():

@@ -36,6 +36,9 @@ EVENT_CAPACITY = 4096
 DEVICE_LOST = 0.5
 WATCH_PERIOD = 0.05
 CLOSE_TIMEOUT = 2.0
+#: s between two of stop()'s looks at the fade beyond which its own thread was held up (the
+#: process or machine stalled): the stream is then given its whole timeout again.
+HELD_UP = 0.1
 #: Streams whose server did not answer and their arrays, kept (freeing could crash them).
 ABANDONED: list = []
 #: :class:`EngineStats` fields read from ``ctl``, ``times`` and the bodies' counters.
@@ -438,22 +441,22 @@ class Engine:
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Fade out, then close the stream within ``timeout`` s plus the fade, dropping every
-        impact and voice; a server that does not answer marks the engine :attr:`failed`."""
+        """Fade out, then close the stream, dropping every impact and voice; a server that does
+        not answer (no callback for ``timeout`` s plus the fade, counted while this thread
+        runs) marks the engine :attr:`failed`."""
         t = checks.nonnegative("timeout", timeout, "s")
         if not self.running:
             return
         ctl = self._native.ctl
         length = int(ctl[st.FADE_LENGTH])
-        deadline = time.monotonic() + t + length / self.samplerate
+        patience = t + length / self.samplerate
         ctl[st.FADE_AT] = 0
-        silent = self.paused and self._native.times[st.PAUSE_LEVEL] <= 0.0
-        while not silent and ctl[st.FADE_AT] < length and time.monotonic() < deadline:
-            time.sleep(0.002)
+        if self.paused and self._native.times[st.PAUSE_LEVEL] <= 0.0:
+            left = patience  # silent already
+        else:
+            left = _await_fade(ctl, length, patience)
         self._closer.detach()
-        done = _close_stream(
-            self._stream, self._native, max(0.0, deadline - time.monotonic()), abort=False
-        )
+        done = _close_stream(self._stream, self._native, left, abort=False)
         self._stream = None  # its watchdog ends
         self._device_lost = None
         if not done:
@@ -658,6 +661,24 @@ def _open_stream(sd, state, callback: str, **settings):
         callback=ffi.cast("void *", native.stream_callback().address),
         userdata=ffi.cast("void *", state.address), **settings,
     )  # fmt: skip
+
+
+def _await_fade(ctl, length: int, patience: float) -> float:
+    """Wait until the stop fade (``length`` frames) has played, or the callback has not come
+    for ``patience`` s; returns the time left of it, s. A look more than ``HELD_UP`` s after
+    the last (this thread, or the whole process, was held up) starts the count anew: the
+    callback had no fair chance to come meanwhile."""
+    seen, last = int(ctl[st.CALLBACKS]), time.monotonic()
+    deadline = last + patience
+    while ctl[st.FADE_AT] < length:
+        now, callbacks = time.monotonic(), int(ctl[st.CALLBACKS])
+        if callbacks != seen or now - last > HELD_UP:
+            seen, deadline = callbacks, now + patience
+        elif now >= deadline:
+            break
+        last = now
+        time.sleep(0.002)
+    return max(0.0, deadline - time.monotonic())
 
 
 def _close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
