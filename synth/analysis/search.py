@@ -21,7 +21,7 @@ from synth.analysis.options import MAX_ORDER
 from synth.analysis.residual import residual_ticks
 from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.ringing import ringing_explained
-from synth.analysis.series import DOUBTFUL_DB, bounce_order
+from synth.analysis.series import DOUBTFUL_DB, bounce_order, fitting_additions
 from synth.analysis.settings import (
     AnalysisError,
     Settings,
@@ -123,6 +123,7 @@ def _with_residual_ticks(
         if r.strength < DOUBTFUL_DB and not adds_sound(test, r.onset / fs, gap / fs):
             continue  # a doubtful burst (an echo's, a reverberation's) must add sound
         added.append(FoundTick(r.onset, r.strength, None, 0, r.onset))
+    added = _series_additions(meter.found, added)
     while added:
         found = sorted(meter.found + added, key=lambda f: f.onset)
         trial = TickMeter(x, found, meter.whitenings, settings, meter.noise)
@@ -134,6 +135,18 @@ def _with_residual_ticks(
             return trial, measured
         added = [f for i, f in enumerate(found) if i in new and i not in dropped]
     return meter, ticks
+
+
+def _series_additions(found: list[FoundTick], added: list[FoundTick]) -> list[FoundTick]:
+    """The ``added`` ticks that leave the bounces of ``found`` with them no less like a ball's
+    (:func:`~synth.analysis.series.fitting_additions`)."""
+    ticks = sorted(
+        [(f.onset, False, f) for f in found] + [(f.onset, True, f) for f in added],
+        key=lambda t: t[0],
+    )
+    onsets = np.array([t[0] for t in ticks])
+    keep = fitting_additions(onsets, np.array([t[1] for t in ticks], dtype=bool))
+    return [t[2] for t, k in zip(ticks, keep) if k and t[1]]
 
 
 def tick_meter(
