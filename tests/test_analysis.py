@@ -414,6 +414,35 @@ def test_bounce_order_keeps_a_series_with_a_missed_tick():
     assert list(_bounce_order(on, st, 0.1)) == list(range(on.size))
 
 
+def test_step_10_keeps_the_missed_bounces_a_series_allows():
+    # a ball's series (restitution 0.9, bounces of 100 ms down), its ticks 3 and 7 missed
+    # by steps 1-9 and found by step 10: both restore the geometric series, so both stay
+    from synth.analysis.series import fitting_additions
+
+    on = np.r_[0.0, np.cumsum(100.0 * 0.9 ** np.arange(12))]
+    new = np.zeros(on.size, dtype=bool)
+    new[[3, 7]] = True
+    assert fitting_additions(on, new).all()
+
+
+def test_step_10_leaves_out_what_no_bounce_makes():
+    # the same series with bursts no bounce makes: 12 units after tick 5 (a soft ball's
+    # release at the end of its contact: the bounce to the next tick would grow), 12 after
+    # the last (a restitution falling from 0.9 to 0.19, over RESTITUTION_STEP) and one after
+    # a grown bounce (tick 8 missed, none found: no flight after tick 9 is known)
+    from synth.analysis.series import fitting_additions
+
+    on = np.r_[0.0, np.cumsum(100.0 * 0.9 ** np.arange(12))]
+    on = np.delete(on, 8)
+    bursts = np.array([on[5] + 12.0, on[-1] + 12.0, on[8] + 30.0])
+    t = np.r_[on, bursts]
+    new = np.r_[np.zeros(on.size, dtype=bool), np.ones(bursts.size, dtype=bool)]
+    order = np.argsort(t)
+    keep = fitting_additions(t[order], new[order])
+    assert keep[~new[order]].all()
+    assert not keep[new[order]].any()
+
+
 # ---------------------------------------------------------------------------
 # energy, spectrum, decay
 
