@@ -48,8 +48,9 @@ ticks, and meet the requirements for the reasons checked below:
   motion makes e jump from one bounce to the next: step 7 keeps a candidate that the first
   search found at the same place within ``AGREEMENT`` although its bounce is sooner than the
   series' soonest (docs/analysis.md, step 7); with the surface fitted on the force pulse's
-  contact times the ninth tick, 2 cm/s and 4.5 ms after the eighth, is still missed:
-  ``ROUNDTRIP_RECOVERED``.)
+  contact times the ninth tick, 2 cm/s and 4.5 ms after the eighth, rises only out of the
+  ringing's residual (step 10), timed within the onset tolerance (measured 123 and 91 us for
+  ticks 9 and 10) but not within the 1 % that ``e_n`` needs: ``ROUNDTRIP_RECOVERED``.)
 
 The restitution from bounce times differs from the physical restitution of the impacts
 (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) / T_(n-1)`` (contact times over
@@ -115,11 +116,12 @@ def _tick_to_masker(scene, seq, r, i):
     return 10.0 * np.log10(own / other)
 
 
-#: Presets whose first ten ticks the analysis does not all recover: the ticks it does recover,
-#: checked as every preset's. On the 6 mm board under MDF's surface fitted on the force
-#: pulse's contact times the ninth tick (a 2 cm/s impact 4.5 ms after the eighth, on the
-#: ringing board) is missed (the module docstring); the test below checks that it still is, so
-#: that a fix shows here.
+#: Presets whose first ten ticks' restitution the analysis does not all recover within 1 %: the
+#: ticks it does, checked as every preset's. On the 6 mm board under MDF's surface fitted on
+#: the force pulse's contact times the ninth tick (a 2 cm/s impact 4.5 ms after the eighth, on
+#: the ringing board) is found by step 10 alone (the module docstring); the ticks after those,
+#: timed within ``ONSET_TOL`` as every tick, have ``e_n`` within what onsets within ``ONSET_TOL``
+#: allow, ``2 d / T_(n-1) + 2 d / T_(n-2)``, so that a better timing shows here.
 ROUNDTRIP_RECOVERED = {"thesis-steel10-mdf6": 8}
 #: A moving preset stays in the round trip: its first ten impacts are a drop's bounces (each
 #: at its own point along the path, the rolling seconds later), which the analysis of a drop's
@@ -135,18 +137,16 @@ def test_roundtrip_recovers_onsets_and_restitution(name, preset_run):
     run = preset_run(name)
     r, a = run.render, run.analysis
     truth = r.onsets
-    n = min(ROUNDTRIP_RECOVERED.get(name, 10), truth.size)
-    got = np.array([t.time for t in a.ticks[:n]])
-    assert got.size == n, (name, got.size, n)
-    if n < min(10, truth.size):
-        # the known miss: the next true onset has no tick within ONSET_TOL
-        times = np.array([t.time for t in a.ticks])
-        assert np.min(np.abs(times - truth[n])) >= ONSET_TOL, (name, n)
-    assert np.max(np.abs(got - truth[:n])) < ONSET_TOL, (name, got - truth[:n])
+    m = min(10, truth.size)
+    n = min(ROUNDTRIP_RECOVERED.get(name, 10), m)
+    got = np.array([t.time for t in a.ticks[:m]])
+    assert got.size == m, (name, got.size, m)
+    assert np.max(np.abs(got - truth[:m])) < ONSET_TOL, (name, got - truth[:m])
     T = np.diff(truth)
-    for i in range(2, n):
+    for i in range(2, m):
         e_true = T[i - 1] / T[i - 2]
-        assert a.ticks[i].restitution == pytest.approx(e_true, rel=0.01), (name, i)
+        rel = 0.01 if i < n else 2.0 * ONSET_TOL / T[i - 1] + 2.0 * ONSET_TOL / T[i - 2]
+        assert a.ticks[i].restitution == pytest.approx(e_true, rel=rel), (name, i)
         # over consecutive impacts no restitution is flagged as spanning a missed bounce
         assert MISSED_BOUNCE not in a.ticks[i].flags, (name, i)
 

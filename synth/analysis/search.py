@@ -18,15 +18,17 @@ from synth.analysis.measures import (
     with_standing_out,
 )
 from synth.analysis.options import MAX_ORDER
+from synth.analysis.residual import residual_ticks
 from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.ringing import ringing_explained
-from synth.analysis.series import bounce_order
+from synth.analysis.series import DOUBTFUL_DB, bounce_order, fitting_additions
 from synth.analysis.settings import (
     AnalysisError,
     Settings,
 )
 from synth.analysis.validity import (
     RiseTest,
+    adds_sound,
     not_impacts,
     without_spurious_end,
 )
@@ -89,7 +91,62 @@ def measured_ticks(
         with one_blas_thread():
             ticks = [meter.tick(i) for i in range(len(found))]
         dropped = set(not_impacts(ticks, test))
+    if resonator:
+        meter, ticks = _with_residual_ticks(x, meter, ticks, settings, innovation, test)
     return without_spurious_end(ticks, x.size / fs, settings.window / fs)
+
+
+def _with_residual_ticks(
+    x: np.ndarray,
+    meter: TickMeter,
+    ticks: list,
+    settings: Settings,
+    innovation: float,
+    test: RiseTest,
+) -> tuple[TickMeter, list]:
+    """Step 10: ``meter`` and its ``ticks`` with the impacts the ringing's residual shows
+    (:func:`~synth.analysis.residual.residual_ticks`); one under
+    :data:`~synth.analysis.series.DOUBTFUL_DB` must raise the recording's spectrum as a drop's
+    start (:func:`~synth.analysis.validity.adds_sound`), one over it need not: in a steady
+    chatter the stretch before a tick holds the tick before, as loud. A new tick that step 9
+    drops is left out, the others measured again without it."""
+    onsets = np.array([f.onset for f in meter.found])
+    if onsets.size == 0:
+        return meter, ticks
+    rises = residual_ticks(x, onsets, settings, innovation)
+    fs = settings.samplerate
+    added = []
+    for r in rises:
+        gap = float(np.abs(onsets - r.onset).min())
+        if gap < settings.min_separation:
+            continue
+        if r.strength < DOUBTFUL_DB and not adds_sound(test, r.onset / fs, gap / fs):
+            continue  # a doubtful burst (an echo's, a reverberation's) must add sound
+        added.append(FoundTick(r.onset, r.strength, None, 0, r.onset))
+    added = _series_additions(meter.found, added)
+    while added:
+        found = sorted(meter.found + added, key=lambda f: f.onset)
+        trial = TickMeter(x, found, meter.whitenings, settings, meter.noise)
+        with one_blas_thread():
+            measured = [trial.tick(i) for i in range(len(found))]
+        new = {i for i, f in enumerate(found) if any(f is g for g in added)}
+        dropped = new & set(ringing_ticks(x, measured, found, settings, innovation))
+        if not dropped:
+            return trial, measured
+        added = [f for i, f in enumerate(found) if i in new and i not in dropped]
+    return meter, ticks
+
+
+def _series_additions(found: list[FoundTick], added: list[FoundTick]) -> list[FoundTick]:
+    """The ``added`` ticks that leave the bounces of ``found`` with them no less like a ball's
+    (:func:`~synth.analysis.series.fitting_additions`)."""
+    ticks = sorted(
+        [(f.onset, False, f) for f in found] + [(f.onset, True, f) for f in added],
+        key=lambda t: t[0],
+    )
+    onsets = np.array([t[0] for t in ticks])
+    keep = fitting_additions(onsets, np.array([t[1] for t in ticks], dtype=bool))
+    return [t[2] for t, k in zip(ticks, keep) if k and t[1]]
 
 
 def tick_meter(

@@ -195,3 +195,48 @@ def _drop_splits(on, strengths, kept: list) -> None:
                 del kept[k + (alone < merged and strengths[kept[k + 1]] < ANCHOR_DB)]
                 continue
         k += 1
+
+
+def unlike_bounces(onsets: np.ndarray) -> int:
+    """How many bounces of ``onsets`` (in time order) no ball makes: one that grew (restitution
+    ``t_n / t_(n-1)`` of 1 or more: a ball's flights shrink, and step 6 keeps only a missed tick
+    to explain it) or whose restitution departs from the one before by more than
+    :data:`RESTITUTION_STEP`."""
+    t = np.diff(np.asarray(onsets, dtype=float))
+    if t.size < 2:
+        return 0
+    e = t[1:] / np.maximum(t[:-1], 1e-300)
+    jump = np.abs(e[1:] / np.maximum(e[:-1], 1e-300) - 1.0) > RESTITUTION_STEP
+    return int(np.count_nonzero(e >= 1.0) + np.count_nonzero(jump))
+
+
+def fitting_additions(onsets: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """Which of the ticks at ``onsets`` (in time order) marked ``new`` to keep. A new tick whose
+    own bounce grew is left out (a ball's flight after an impact is shorter than the one before
+    it), as is one after a tick whose bounce grew (placed by no ball's series: no flight after
+    it is known), and so is one without which the series has fewer :func:`unlike_bounces`, the
+    one that removes the most first, until none does. A new tick that leaves the series no less like
+    a ball's stays: what found it judged it; this judges only what a series allows."""
+    t = np.asarray(onsets, dtype=float)
+    new = np.asarray(new, dtype=bool)
+    keep = np.ones(t.size, dtype=bool)
+    while True:
+        idx = np.nonzero(keep)[0]
+        base = unlike_bounces(t[idx])
+        worst, worst_gain = -1, 0.0
+        kept = t[idx]
+        for pos in np.nonzero(new[idx])[0]:
+            if _grown(kept, pos) or _grown(kept, pos - 1):
+                gain = math.inf
+            else:
+                gain = float(base - unlike_bounces(np.delete(kept, pos)))
+            if gain > worst_gain:
+                worst, worst_gain = int(idx[pos]), gain
+        if worst < 0:
+            return keep
+        keep[worst] = False
+
+
+def _grown(t: np.ndarray, i: int) -> bool:
+    """Whether the bounce that ends at ``t[i]`` is no shorter than the one before it."""
+    return i >= 2 and t[i] - t[i - 1] >= t[i - 1] - t[i - 2]
