@@ -68,7 +68,8 @@ _AHEAD = pytest.StashKey()
 
 def pytest_collection_finish(session):
     """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
-    (the machine's second core) for a run that reaches them."""
+    (the machine's second core) for a run that reaches them, and the cold children of
+    tests/test_cold.py beside the tests for a run that reads them."""
     if os.environ.get("SYNTH_TEST_AHEAD") == "0" or session.config.option.collectonly:
         return
     files = {item.path.name for item in session.items}
@@ -76,14 +77,22 @@ def pytest_collection_finish(session):
         from synth import warmup
 
         session.config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
+    if any("cold_children" in getattr(item, "fixturenames", ()) for item in session.items):
+        import cold_children
+
+        cold_children.start_early()
 
 
 def pytest_sessionfinish(session):
-    """Stop the compiling process if it still runs; say so if it failed."""
+    """Stop the compiling process if it still runs; say so if it failed. Remove the cold
+    children's folder."""
     ahead = session.config.stash.get(_AHEAD, None)
     errors = ahead.finish() if ahead is not None else None
     if errors:
         print(f"\nthe process compiling {ahead.names} ahead failed:\n{errors}", file=sys.stderr)
+    import cold_children
+
+    cold_children.remove_folder()
 
 
 def pytest_terminal_summary(terminalreporter, config):

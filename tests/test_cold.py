@@ -7,28 +7,14 @@ cache) so that the developer's warm cache is neither used nor touched.
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-from dataclasses import dataclass
-
+import cold_children as cold
 import numba
 import pytest
 
 NOTE = "synth: compiling "
 
 
-def _python(code: str, env: dict | None = None, cwd=None, args=()) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-c", code, *args],
-        capture_output=True,
-        text=True,
-        env=dict(os.environ, **(env or {})),
-        cwd=cwd,
-        check=False,
-        timeout=900,
-    )
+_python = cold.python_child
 
 
 def test_import_synth_loads_no_numerical_library_and_every_name_resolves():
@@ -99,130 +85,11 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
     assert proc.stdout.splitlines()[-3:] == ["True", "True", "[]"]
 
 
-#: A child on an empty numba cache renders the rolling preset (``clean``: nothing compiled
-#: before, and then the default preset and a contact by each integrator, in one process so
-#: that the kernels both renders use compile once; ``again``: on the cache a ``clean``
-#: child filled; ``others-first``: other kernels compiled from Python first, the live
-#: engine's callback and rolling block among them, whose fresh code it inspects: cached
-#: code cannot be). It prints one JSON line: the rolling render's size and digest, the
-#: compiles numba logged from the first render on, what the live engine's code calls.
-COLD_CHILD = """
-import hashlib, json, sys
-from synth.compilation import CompileLog
-case = sys.argv[1]
-found = {}
-log = CompileLog()
-if case == "others-first":
-    from synth.live import native
-    from synth.physics import rolling, surface
-    from synth.physics.contact_kernels import equations
-    native.warm_up(rolling=True)
-    symbols = (
-        "PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate",
-        "clock_gettime", "_write_block", "mix_body", "_advance", "_add_slot", "_settle",
-        "limit_block", "mix_rolls", "rolling_kernels4roll",
-    )
-    for name, code in (("callback", native.stream_callback()),
-                       ("rolling_block", native.rolling_block_code())):
-        ir = code.inspect_llvm()
-        found[name] = {symbol: symbol in ir for symbol in symbols}
-    from synth.live import kernel
-    found["specialised_twice"] = sorted(
-        n for n, f in vars(kernel).items() if len(getattr(f, "overloads", ())) > 1
-    )
-    equations.force(1e-6, 0.1, 1e9, 1.5, 0.0, 0.0)
-    from synth.physics.scene import Ball, Plate
-    ball = Ball("steel", 0.01)
-    spec = surface.RoughnessSpectrum(rms_height=1e-6, correlation_length=1e-4, hurst=0.8)
-    env = surface.contact_envelope(
-        surface.rough_profile(spec, length=0.02, spacing=5e-6, seed=3), ball.radius
-    )
-    rolling.roll(
-        ball, Plate("glass", 0.006, 0.5, 0.4), env, speed=0.2, duration=0.01,
-        samplerate=48000, origin=(0.1, 0.2), start=0.005,
-    )
-with log.recording():
-    import synth
-    r = synth.render_preset("thesis-steel10-mdf18-rolling", normalize="none")
-    found["rolling"] = [r.audio.size, hashlib.sha256(r.audio.tobytes()).hexdigest()]
-    if case == "clean":
-        from synth.physics.contact import solve_contact
-        synth.render_preset("default")
-        for method in ("auto", "Radau"):
-            solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=method)
-        solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, viscous_time=1e-7)
-found["compiles"] = {k: n for k, n, _ in log.by_kernel() if k.startswith("synth.")}
-print(json.dumps(found))
-"""
-
-
-#: ``synth warmup`` of step 2 (a contact by Radau IIA).
-WARMUP = "from synth.cli import main; raise SystemExit(main(['warmup', '--step', '2']))"
-
-
-#: The live engine's code (the audio callback and the rolling voices' block) compiled into
-#: the suite's own numba cache, the one this process loads from, by a child beside the cold
-#: ones: it is this process' longest compile, and a core is free while the children run.
-SUITE_CACHE_WARMUP = "from synth.live import native; native.warm_up(rolling=True)"
-
-
-@dataclass(frozen=True)
-class ColdChildren:
-    """What the children of :data:`COLD_CHILD` printed (one JSON object each), and the two
-    runs of :data:`WARMUP`: on an empty numba cache, then on the cache it filled."""
-
-    clean: dict
-    others_first: dict
-    again: dict
-    warmup: subprocess.CompletedProcess
-    warmup_again: subprocess.CompletedProcess
-
-
-def _run_child(tmp, cache, code, *args) -> subprocess.CompletedProcess:
-    """``code`` in a child process on the numba and synth caches ``tmp / cache``, or on the
-    suite's own caches if ``cache`` is None."""
-    env = {} if cache is None else {
-        "NUMBA_CACHE_DIR": str(tmp / cache), "SYNTH_CACHE_DIR": str(tmp / cache),
-    }  # fmt: skip
-    return _python(code, env, args=args)
-
-
-def _printed(done: subprocess.CompletedProcess) -> dict:
-    assert done.returncode == 0, done.stderr[-2000:]
-    return json.loads(done.stdout.splitlines()[-1])
-
-
 @pytest.fixture(scope="module")
 def cold_children(tmp_path_factory):
-    """The cold children, run once for the module: each costs a whole compile of its
-    kernels (tens of seconds of CPU), and several tests read their output. Two at a time
-    (two cores, one single-threaded compile per child), in this order, each on the next
-    free core: the others-first child (it compiles the live engine too), the clean one
-    then its ``again`` on its cache, the live engine into the suite's cache
-    (:data:`SUITE_CACHE_WARMUP`), the two warmups on a cache of their own."""
-    from concurrent.futures import ThreadPoolExecutor
-
-    tmp = tmp_path_factory.mktemp("cold")
-
-    def chain(*children):  # children run one after the other (the later on the earlier's cache)
-        return lambda: [_run_child(tmp, *child) for child in children]
-
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        others_first = pool.submit(chain(("b", COLD_CHILD, "others-first")))
-        clean = pool.submit(chain(("a", COLD_CHILD, "clean"), ("a", COLD_CHILD, "again")))
-        suite = pool.submit(chain((None, SUITE_CACHE_WARMUP)))
-        warmups = pool.submit(chain(("d", WARMUP), ("d", WARMUP)))
-    (suite_warmup,) = suite.result()
-    assert suite_warmup.returncode == 0, suite_warmup.stderr[-2000:]
-    clean_run, again = clean.result()
-    warmup, warmup_again = warmups.result()
-    return ColdChildren(
-        _printed(clean_run),
-        _printed(others_first.result()[0]),
-        _printed(again),
-        warmup,
-        warmup_again,
-    )
+    """The cold children (tests/cold_children.py), run once for the module: started at the
+    run's start beside the tests when the run reaches this fixture, else here."""
+    return cold.cold_children(tmp_path_factory.mktemp("cold"))
 
 
 @pytest.mark.slow
