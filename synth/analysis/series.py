@@ -222,19 +222,25 @@ def fitting_additions(onsets: np.ndarray, new: np.ndarray) -> np.ndarray:
     keep = np.ones(t.size, dtype=bool)
     while True:
         idx = np.nonzero(keep)[0]
-        base = unlike_bounces(t[idx])
         worst, worst_gain = -1, 0.0
         kept = t[idx]
         for pos in np.nonzero(new[idx])[0]:
             if _grown(kept, pos) or _grown(kept, pos - 1):
                 gain = math.inf
             else:
-                gain = float(base - unlike_bounces(np.delete(kept, pos)))
+                gain = float(_unlike_bounces_removed(kept, pos))
             if gain > worst_gain:
                 worst, worst_gain = int(idx[pos]), gain
         if worst < 0:
             return keep
         keep[worst] = False
+
+
+def _unlike_bounces_removed(t: np.ndarray, i: int) -> int:
+    """How many fewer :func:`unlike_bounces` ``t`` has without ``t[i]``: counted on ``t[i - 3 :
+    i + 4]`` alone, which holds every bounce, restitution and jump the removal changes."""
+    near = t[max(0, i - 3) : i + 4]
+    return unlike_bounces(near) - unlike_bounces(np.delete(near, min(i, 3)))
 
 
 def _grown(t: np.ndarray, i: int) -> bool:
