@@ -238,13 +238,16 @@ def hold_the_gil(seconds):
 
 
 def test_the_audio_runs_while_another_thread_holds_the_gil(jack, scene):
-    # the callback is compiled code that PortAudio calls without Python's GIL: while a
-    # thread holds the GIL for 3 s (sleeping, so the CPU stays free and only the GIL is
-    # asked about) the stream keeps its clock: at least 90 % of its blocks are called back,
-    # each one in time but for two at most (PortAudio's output_underflow flag, not timed).
-    # A callback that needed the GIL would run no block in that time and be flagged late on
-    # every one; the dummy backend's unprivileged thread may miss a deadline to the
-    # scheduler alone, once in hundreds of blocks on a busy 2-core machine
+    # the callback is compiled code that PortAudio calls without Python's GIL (its machine
+    # code calls no Python API: tests/cold_children.py). While a thread holds the GIL for
+    # 3 s (sleeping, so the CPU stays free and only the GIL is asked about) a callback that
+    # needed it would stall for the whole hold: almost no block called back, one gap as
+    # long as the hold (the Python fallback's, in the timing test below). The stream keeps
+    # its clock instead: at least 90 % of the blocks are called back, no gap and no
+    # callback lasts a tenth of the hold, and fewer than a tenth of the blocks are flagged
+    # (PortAudio's output_underflow). The flags a loaded machine raises with no hold at all
+    # (the server's own late cycles, a client thread woken late: up to a few in a hundred
+    # blocks on a busy 2-core virtual machine) are measured by `synth bench live`
     engine = synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device)
     engine.add(scene.plate, listener=scene.listener, gain=0.05)
     seconds = 3.0
@@ -255,7 +258,9 @@ def test_the_audio_runs_while_another_thread_holds_the_gil(jack, scene):
         after = engine.stats
     blocks = seconds * FS / BLOCK
     assert after.callbacks - before.callbacks > 0.9 * blocks  # the clock ran throughout
-    assert after.output_underflows - before.output_underflows <= 2
+    assert after.callback_gap_max < 0.1 * blocks  # in blocks: no stall
+    assert after.callback_max < 0.1 * blocks  # in blocks: no callback waited
+    assert after.output_underflows - before.output_underflows < 0.1 * blocks
 
 
 def test_busy_python_threads_leave_the_stream_running_and_hits_played(jack, scene):
