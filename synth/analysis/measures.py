@@ -50,16 +50,42 @@ def with_standing_out(x, found: list[FoundTick], whitening: Whitening, settings)
     return sorted(found + added, key=lambda f: f.onset)
 
 
+@dataclass(frozen=True)
+class SoundMeasures:
+    """The measures of a tick's own sound over its window: energy (signal squared times s), peak
+    (signal units), spectral centroid and spread (Hz), decay time (s, or None) and window (s)."""
+
+    energy: float
+    peak: float
+    centroid: float
+    spread: float
+    decay_time: float | None
+    window: float
+
+
 class TickMeter:
     """The measurements of the ticks ``found`` in ``x``, one at a time (:meth:`tick`): each depends
-    only on its own model and window, the next window's start and the earlier onsets."""
+    only on its own model and window, the next window's start and the earlier onsets. A tick's
+    sound, once measured, is kept for every meter :meth:`with_found` makes: ticks dropped or added
+    change only their neighbours' windows."""
 
-    def __init__(self, x, found: list[FoundTick], whitenings: list[Whitening], settings, noise):
+    def __init__(
+        self, x, found: list[FoundTick], whitenings: list[Whitening], settings, noise, sounds=None
+    ):
         self.x, self.found, self.whitenings = x, found, whitenings
         self.settings, self.noise = settings, noise
         self.onsets = np.array([f.onset for f in found])  # samples
         detected = np.floor([f.detected for f in found]).astype(int)
         self.starts = np.maximum(detected - WINDOW_GUARD, 0)
+        # (id of the FoundTick, end of its own excitation) -> (the FoundTick, its SoundMeasures);
+        # the FoundTick held keeps its id from being reused
+        self._sounds = {} if sounds is None else sounds
+
+    def with_found(self, found: list[FoundTick]) -> TickMeter:
+        """A meter of the ticks ``found`` in the same recording, sharing the sounds measured."""
+        return TickMeter(
+            self.x, found, self.whitenings, self.settings, self.noise, sounds=self._sounds
+        )
 
     def time(self, i: int) -> float:
         """Onset of tick ``i``, s (as :meth:`tick` gives it)."""
@@ -67,30 +93,54 @@ class TickMeter:
 
     def tick(self, i: int) -> Tick:
         """The :class:`Tick` of the ``i``-th tick found."""
-        settings, t, s, fs = self.settings, self.onsets, self.starts[i], self.settings.samplerate
-        e = min(self.x.size, s + settings.window)
-        if not settings.subtract_tails:
-            y = self.x[s:e].copy()
-        else:
-            stop = min(e, self.starts[i + 1]) if i + 1 < self.starts.size else e
-            f = self.found[i]
-            y = own_sound(f, self.whitenings[f.whitening], s, e, stop)
+        settings, t, fs = self.settings, self.onsets, self.settings.samplerate
+        m = self.sound(i)
         bt = None if i == 0 else float((t[i] - t[i - 1]) / fs)
-        c, sp = spectral_moments(y, fs)
         return Tick(
             index=i + 1,
             time=float(t[i] / fs),
             bounce_time=bt,
             restitution=None if i < 2 else float(bt / ((t[i - 1] - t[i - 2]) / fs)),
             speed=None if bt is None else float(settings.gravity * bt / 2.0),
-            energy=float(np.dot(y, y) / fs),
-            peak=float(np.abs(y).max()),
-            centroid=c,
-            spread=sp,
-            decay_time=decay_time(y, fs, settings.decay_smoothing, self.noise),
-            window=float(y.size / fs),
+            energy=m.energy,
+            peak=m.peak,
+            centroid=m.centroid,
+            spread=m.spread,
+            decay_time=m.decay_time,
+            window=m.window,
             strength=float(self.found[i].strength),
         )
+
+    def sound(self, i: int) -> SoundMeasures:
+        """The :class:`SoundMeasures` of the ``i``-th tick's own sound, measured once."""
+        s, f = self.starts[i], self.found[i]
+        e = min(self.x.size, s + self.settings.window)
+        stop = min(e, self.starts[i + 1]) if i + 1 < self.starts.size else e
+        key = (id(f), int(stop))
+        hit = self._sounds.get(key)
+        if hit is not None and hit[0] is f:
+            return hit[1]
+        if not self.settings.subtract_tails:
+            y = self.x[s:e].copy()
+        else:
+            y = own_sound(f, self.whitenings[f.whitening], s, e, stop)
+        m = measure_sound(y, self.settings.samplerate, self.settings.decay_smoothing, self.noise)
+        self._sounds[key] = (f, m)
+        return m
+
+
+def measure_sound(y: np.ndarray, fs: float, smoothing: int, noise: float) -> SoundMeasures:
+    """The :class:`SoundMeasures` of ``y`` (rate ``fs``, Hz; decay envelope smoothed over
+    ``smoothing`` samples, fitted above ``noise``)."""
+    c, sp = spectral_moments(y, fs)
+    return SoundMeasures(
+        energy=float(np.dot(y, y) / fs),
+        peak=float(np.abs(y).max()),
+        centroid=c,
+        spread=sp,
+        decay_time=decay_time(y, fs, smoothing, noise),
+        window=float(y.size / fs),
+    )
 
 
 def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) -> np.ndarray:

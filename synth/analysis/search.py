@@ -87,7 +87,7 @@ def measured_ticks(
     while dropped:  # the others measured again: their bounces span the dropped ones, and
         # a bounce that spans one may show a tick doubtful that the dropped one hid
         found = [f for i, f in enumerate(meter.found) if i not in dropped]
-        meter = TickMeter(x, found, meter.whitenings, settings, meter.noise)
+        meter = meter.with_found(found)
         with one_blas_thread():
             ticks = [meter.tick(i) for i in range(len(found))]
         dropped = set(not_impacts(ticks, test))
@@ -126,7 +126,7 @@ def _with_residual_ticks(
     added = _series_additions(meter.found, added)
     while added:
         found = sorted(meter.found + added, key=lambda f: f.onset)
-        trial = TickMeter(x, found, meter.whitenings, settings, meter.noise)
+        trial = meter.with_found(found)
         with one_blas_thread():
             measured = [trial.tick(i) for i in range(len(found))]
         new = {i for i, f in enumerate(found) if any(f is g for g in added)}
