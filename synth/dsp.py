@@ -110,19 +110,41 @@ def _covariance_row(seg: np.ndarray, p: int) -> np.ndarray:
 @compiled()
 def _shift_recursion(C, first, last):  # pragma: no cover - compiled
     """Rows 1..p of the covariance matrix from row 0 (in place), ``first[b, i] = x[n1-1-i]``
-    and ``last[b, i] = x[n2-1-i]`` of each block; the lower triangle mirrored."""
+    and ``last[b, i] = x[n2-1-i]`` of each block; the lower triangle mirrored. One block (the
+    usual case) runs along contiguous rows, the same sums in the same order."""
     p = C.shape[0] - 1
-    for i in range(p):
-        for j in range(i, p):
-            s = C[i, j]
-            for b in range(first.shape[0]):
-                s += first[b, i] * first[b, j]
-            for b in range(last.shape[0]):
-                s -= last[b, i] * last[b, j]
-            C[i + 1, j + 1] = s
-    for i in range(p + 1):
-        for j in range(i):
-            C[i, j] = C[j, i]
+    if first.shape[0] == 1 and last.shape[0] == 1:
+        f = first[0]
+        g = last[0]
+        for i in range(p):
+            fi = f[i]
+            gi = g[i]
+            src = C[i]
+            dst = C[i + 1]
+            for j in range(i, p):
+                dst[j + 1] = (src[j] + fi * f[j]) - gi * g[j]
+    else:
+        for i in range(p):
+            for j in range(i, p):
+                s = C[i, j]
+                for b in range(first.shape[0]):
+                    s += first[b, i] * first[b, j]
+                for b in range(last.shape[0]):
+                    s -= last[b, i] * last[b, j]
+                C[i + 1, j + 1] = s
+    _mirror_upper(C)
+
+
+@compiled()
+def _mirror_upper(C):  # pragma: no cover - compiled
+    """The lower triangle of the square ``C`` from its upper one, in tiles that stay in cache."""
+    n = C.shape[0]
+    tile = 64
+    for i0 in range(0, n, tile):
+        for j0 in range(0, i0 + 1, tile):
+            for i in range(i0, min(i0 + tile, n)):
+                for j in range(j0, min(j0 + tile, i)):
+                    C[i, j] = C[j, i]
 
 
 def is_minimum_phase(a: np.ndarray) -> bool:

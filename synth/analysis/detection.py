@@ -59,6 +59,8 @@ def _frame_energies(z, hop, w):  # pragma: no cover - compiled
 def pairwise_sum(a, start, n):  # pragma: no cover - compiled
     """numpy's pairwise ``sum(a[start:start+n])`` (as ``numpy.trace``) on a stack: a cached
     recursive kernel fails to load when called by another."""
+    if n <= 128:  # one leaf (a frame of the detection function): no stack to set up
+        return _pairwise_leaf(a, start, n)
     starts = np.empty(64, dtype=np.int64)
     sizes = np.empty(64, dtype=np.int64)
     phase = np.zeros(64, dtype=np.int64)  # 0: new, 1: waiting for its left half, 2: right
