@@ -357,7 +357,7 @@ def first_ticks(
         # one, or one that clearly stands out of the recording, is not (its ringing decays)
         sure = strength >= ANCHOR_DB
         if x is not None:
-            sure |= stand_out(x, r, onsets, settings)
+            sure |= stand_out(x, r, onsets, settings, onsets[0])
         series = bounce_series(onsets, settings.e_min, sure=sure)
         anchors, anchor_strength = onsets[series], strength[series]
         sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
@@ -450,18 +450,23 @@ def standing_out(
     return StandingOut(np.array(onsets), np.array(strengths))
 
 
-def stand_out(x: np.ndarray, r: np.ndarray, onsets: np.ndarray, settings: Settings) -> np.ndarray:
-    """Whether each onset (samples) of the recording ``x`` clearly stands out by step 8's two
-    tests: ``x``'s mean square over :data:`STANDS_OUT_SPAN` :data:`STANDS_OUT_DB` over that of
-    :data:`STANDS_OUT_BEFORE` before it, and its whitening ``r``'s beyond white noise's F
-    quantile (:func:`noise_rise`)."""
+def stand_out(
+    x: np.ndarray, r: np.ndarray, onsets: np.ndarray, settings: Settings, first: float
+) -> np.ndarray:
+    """Whether each onset (samples) of the recording ``x`` clearly stands out of the first
+    tick's ringing (from ``first``, samples) by step 8's two tests: ``x``'s mean square over
+    :data:`STANDS_OUT_SPAN` :data:`STANDS_OUT_DB` over that of :data:`STANDS_OUT_BEFORE`
+    before it, and its whitening ``r``'s beyond white noise's F quantile (:func:`noise_rise`).
+    One whose stretch before reaches over ``first`` is not judged (False): it would rise over
+    the lead-in, not over the ringing."""
     fs = settings.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
     before = max(1, int(round(STANDS_OUT_BEFORE * fs / settings.hop))) * settings.hop
     need_x, need_e = 10.0 ** (STANDS_OUT_DB / 10.0), noise_rise(span, before)
     return np.array(
         [
-            rise_at(x, int(on), span, before) >= need_x
+            int(on) - before > first
+            and rise_at(x, int(on), span, before) >= need_x
             and rise_at(r, int(on), span, before) >= need_e
             for on in onsets
         ],
