@@ -7,7 +7,10 @@ import numpy as np
 import pytest
 
 from benchmarks.analysis_scenes import SceneSpec, run_scene
+from synth.analysis.detection import stand_out
+from synth.analysis.options import AnalysisOptions
 from synth.analysis.report import Tick
+from synth.analysis.settings import make_settings
 from synth.analysis.validity import (
     SPECTRAL_RISE_MIN_SPAN,
     RiseTest,
@@ -64,6 +67,25 @@ def test_the_spectral_rise_is_judged_up_to_the_recordings_end():
     # shorter than the least span after it: undecided, kept
     late = (ring.size - int(0.5 * SPECTRAL_RISE_MIN_SPAN * fs)) / fs
     assert rise_verdict(test, late, 0.05).adds
+
+
+def test_a_burst_stands_out_of_the_first_ticks_ringing_not_of_the_lead_in():
+    # a decaying ringing from an impact at 5 ms after silence, with a second impact 100 ms
+    # later: the second stands out (step 8's tests: 6 dB over the 3 ms before it); a point
+    # 2 ms into the first tick's ringing rises over the silent lead-in only and is not
+    # judged (step 3 takes it for no bounce)
+    fs = 48000
+    t = np.arange(int(0.3 * fs)) / fs
+    rng = np.random.default_rng(5000)
+    x = 1e-6 * rng.standard_normal(t.size)
+    for t0, a in ((0.005, 1.0), (0.105, 0.5)):
+        k = t >= t0
+        tt = t[k] - t0
+        x[k] += a * np.exp(-tt / 0.02) * np.sin(2 * np.pi * 1500.0 * tt)
+    settings = make_settings(1, fs, AnalysisOptions())
+    onsets = np.array([0.005, 0.007, 0.105]) * fs
+    out = stand_out(x, x, onsets, settings, onsets[0])
+    assert out.tolist() == [False, False, True]
 
 
 #: A 29 mm brass ball dropped 7 cm on a 19 mm clamped steel plate, heard at 96 kHz: one audible
