@@ -338,9 +338,12 @@ class FirstTicks:
     anchor_strengths: np.ndarray
 
 
-def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTicks:
-    """Steps 2-4 on ``r`` (``background``: the running median's length, s); raises AnalysisError
-    when no candidate is kept."""
+def first_ticks(
+    r: np.ndarray, settings: Settings, background: float, x: np.ndarray | None = None
+) -> FirstTicks:
+    """Steps 2-4 on ``r`` (``background``: the running median's length, s), the whitening of
+    the recording ``x`` (same samples; None: ``r`` alone); raises AnalysisError when no
+    candidate is kept."""
     found = detect(r, settings, background)
     onsets = _candidate_onsets(r, found, settings)
     kept = _separate(onsets, settings.min_separation)
@@ -352,8 +355,12 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
     strength = 10.0 * np.log10(found.d[peaks] / found.threshold[peaks])
     anchors, anchor_strength = onsets[:1], strength[:1]
     if peaks.size > 1:
-        # the candidates before the second tick are the first tick's own response
-        series = bounce_series(onsets, settings.e_min, sure=strength >= ANCHOR_DB)
+        # the candidates before the second tick are the first tick's own response; a sure
+        # one, or one that clearly stands out of the recording, is not (its ringing decays)
+        sure = strength >= ANCHOR_DB
+        if x is not None:
+            sure |= stand_out(x, r, onsets, settings, onsets[0])
+        series = bounce_series(onsets, settings.e_min, sure=sure)
         anchors, anchor_strength = onsets[series], strength[series]
         sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
         anchors, anchor_strength = anchors[sure], anchor_strength[sure]
@@ -443,6 +450,30 @@ def standing_out(
         onsets.append(on)
         strengths.append(10.0 * math.log10(min(rx / need_x, re / need_e)))
     return StandingOut(np.array(onsets), np.array(strengths))
+
+
+def stand_out(
+    x: np.ndarray, r: np.ndarray, onsets: np.ndarray, settings: Settings, first: float
+) -> np.ndarray:
+    """Whether each onset (samples) of the recording ``x`` clearly stands out of the first
+    tick's ringing (from ``first``, samples) by step 8's two tests: ``x``'s mean square over
+    :data:`STANDS_OUT_SPAN` :data:`STANDS_OUT_DB` over that of :data:`STANDS_OUT_BEFORE`
+    before it, and its whitening ``r``'s beyond white noise's F quantile (:func:`noise_rise`).
+    One whose stretch before reaches over ``first`` is not judged (False): it would rise over
+    the lead-in, not over the ringing."""
+    fs = settings.samplerate
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    before = max(1, int(round(STANDS_OUT_BEFORE * fs / settings.hop))) * settings.hop
+    need_x, need_e = 10.0 ** (STANDS_OUT_DB / 10.0), noise_rise(span, before)
+    return np.array(
+        [
+            int(on) - before > first
+            and rise_at(x, int(on), span, before) >= need_x
+            and rise_at(r, int(on), span, before) >= need_e
+            for on in onsets
+        ],
+        dtype=bool,
+    )
 
 
 def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings: Settings) -> bool:

@@ -67,7 +67,7 @@ def first_search(
     autocorrelation terms."""
     A = whitening_predictor(x, settings.whitening_order, settings.samplerate, parts)
     with one_blas_thread():
-        return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
+        return FirstSearch(A, _search(whiten(x, A), settings, locate=locate, x=x))
 
 
 def measured_ticks(
@@ -246,17 +246,23 @@ class SearchResult:
 
 
 def _search(
-    r: np.ndarray, settings: Settings, order: int | None = None, known=(), locate: bool = False
+    r: np.ndarray,
+    settings: Settings,
+    order: int | None = None,
+    known=(),
+    locate: bool = False,
+    x: np.ndarray | None = None,
 ) -> SearchResult:
-    """Steps 2-5 on ``r``; with ``order``, step 7's rules (background over :data:`BACKGROUND_SPAN`
-    times the order, no fixed floor unless given). ``known``: the first search's onsets."""
+    """Steps 2-5 on ``r``, the whitening of the recording ``x``; with ``order``, step 7's rules
+    (background over :data:`BACKGROUND_SPAN` times the order, no fixed floor unless given).
+    ``known``: the first search's onsets."""
     fs, hop = settings.samplerate, settings.hop
     background = (
         settings.background
         if order is None
         else max(settings.background, BACKGROUND_SPAN * order / fs)
     )
-    ft = first_ticks(r, settings, background)
+    ft = first_ticks(r, settings, background, x)
     if not settings.deflate:
         return SearchResult(r, ft.onsets, ft.strengths, None, None, None, ft.peaks, None)
     peaks, d = ft.peaks, ft.d
@@ -310,7 +316,7 @@ def _resonator_stage(
     known = np.array([f.onset for f in found])
     try:
         with one_blas_thread():
-            res = _search(whiten(x, a_res), settings, a_res.size - 1, known)
+            res = _search(whiten(x, a_res), settings, a_res.size - 1, known, x=x)
     except AnalysisError:
         return found
     if res.ringing_left is None or not (

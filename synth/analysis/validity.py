@@ -129,8 +129,11 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     if n < SPECTRAL_RISE_MIN_SPAN * fs or i < n:
         return undecided
     seg = np.asarray(test.read(i - n, i + n), dtype=float)
-    if seg.size < 2 * n:
-        return undecided
+    if seg.size < 2 * n:  # the recording ends within the span: as long a stretch each side
+        n = seg.size - n
+        if n < SPECTRAL_RISE_MIN_SPAN * fs:
+            return undecided
+        seg = seg[seg.size - 2 * n :]
     ratios = rise_ratios_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
     if not ratios.size:
         return undecided
@@ -320,9 +323,10 @@ def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
 
 
 def _continues_series(ticks: list[Tick]) -> bool:
-    """Whether the last tick may continue the series (second, or shrunk bounce)."""
+    """Whether the last tick continues the series: a bounce shorter than the one before. A
+    second tick has no bounce before its own to be shorter than: nothing confirms it."""
     e = ticks[-1].restitution
-    return len(ticks) == 2 or (e is not None and e < 1.0)
+    return e is not None and e < 1.0
 
 
 def _after_rest(ticks: list[Tick]) -> bool:
