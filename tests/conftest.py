@@ -82,6 +82,22 @@ def _runs_over_workers(config) -> bool:
     return getattr(config.option, "dist", "no") != "no" and not _is_worker(config)
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config, items):
+    """In a pytest-xdist worker, the files with the most tests marked slow first, then the
+    files with the most tests: the workers take files in this order
+    (:class:`FileOrGroupScheduling`), so that a long file starts early rather than last,
+    when the other worker would have nothing left to run beside it."""
+    if not _is_worker(config):
+        return
+    slow: dict[Path, int] = {}
+    count: dict[Path, int] = {}
+    for item in items:
+        slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
+        count[item.path] = count.get(item.path, 0) + 1
+    items.sort(key=lambda item: (-slow[item.path], -count[item.path], str(item.path)))
+
+
 def pytest_collection_finish(session):
     """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
     (the machine's second core) for a run in one process that reaches them."""
