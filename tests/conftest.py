@@ -77,11 +77,6 @@ def _is_worker(config) -> bool:
     return hasattr(config, "workerinput")
 
 
-def _runs_over_workers(config) -> bool:
-    """True in the process that runs the tests over pytest-xdist workers (``-n N``)."""
-    return getattr(config.option, "dist", "no") != "no" and not _is_worker(config)
-
-
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(config, items):
     """In a pytest-xdist worker, the files with the most tests marked slow first, then the
