@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from xdist.scheduler import LoadScopeScheduling
 
 #: The repository (or the fresh copy CI runs in) that holds these tests.
 REPOSITORY = Path(__file__).resolve().parents[1]
@@ -59,56 +60,140 @@ def pytest_configure(config):
 #: cache (synth.warmup.start_ahead), in this order: the stiff contact's and the live
 #: engine's, which the presets' renders (the first tests' kernels) do not compile. The
 #: stiff contact goes first: the contact tests need it before the live tests need theirs.
+#: Only a run in one process compiles ahead: a run spread over worker processes
+#: (pytest-xdist, ``-n``) keeps every core busy with tests, each worker compiling what it
+#: meets first into the numba disk cache the others load from.
 #: Set SYNTH_TEST_AHEAD=0 to compile everything in the test process.
 AHEAD_GROUPS = ("stiff-contact", "live", "live-rolling")
 #: A run of at least this many tests, or of a live engine's test file, compiles ahead.
 AHEAD_MIN_TESTS = 200
 _AHEAD = pytest.StashKey()
+#: The CPU seconds the controller of a run over workers gathers from each worker.
+_WORKERS_CPU = pytest.StashKey()
+
+
+def _is_worker(config) -> bool:
+    """True in a pytest-xdist worker process."""
+    return hasattr(config, "workerinput")
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config, items):
+    """In a pytest-xdist worker, the files with the most tests marked slow first, then the
+    files with the most tests: the workers take files in this order
+    (:class:`FileOrGroupScheduling`), so that a long file starts early rather than last,
+    when the other worker would have nothing left to run beside it."""
+    if not _is_worker(config):
+        return
+    slow: dict[Path, int] = {}
+    count: dict[Path, int] = {}
+    for item in items:
+        slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
+        count[item.path] = count.get(item.path, 0) + 1
+    items.sort(key=lambda item: (-slow[item.path], -count[item.path], str(item.path)))
 
 
 def pytest_collection_finish(session):
     """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
-    (the machine's second core) for a run that reaches them, and the cold children of
-    tests/test_cold.py beside the tests for a run that reads them."""
-    if os.environ.get("SYNTH_TEST_AHEAD") == "0" or session.config.option.collectonly:
+    (the machine's second core) for a run in one process that reaches them, and the cold
+    children of tests/test_cold.py beside the tests for such a run that reads them (a
+    pytest-xdist worker runs them when its first test reads them: a second worker would
+    start them too)."""
+    config = session.config
+    if os.environ.get("SYNTH_TEST_AHEAD") == "0" or config.option.collectonly:
+        return
+    if _is_worker(config):
         return
     files = {item.path.name for item in session.items}
     if len(session.items) >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files):
         from synth import warmup
 
-        session.config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
+        config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
     if any("cold_children" in getattr(item, "fixturenames", ()) for item in session.items):
         import cold_children
 
         cold_children.start_early()
 
 
+@dataclass(frozen=True)
+class ProcessCpu:
+    """The CPU seconds (user + system) of a test process and of the children it waited for
+    (the Pythons the tests start, the process compiling ahead among them)."""
+
+    own: float
+    children: float
+
+    @classmethod
+    def of_this_process(cls) -> "ProcessCpu":
+        import resource
+
+        own = resource.getrusage(resource.RUSAGE_SELF)
+        children = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return cls(own.ru_utime + own.ru_stime, children.ru_utime + children.ru_stime)
+
+
 def pytest_sessionfinish(session):
     """Stop the compiling process if it still runs; say so if it failed. Remove the cold
-    children's folder."""
-    ahead = session.config.stash.get(_AHEAD, None)
+    children's folder. A worker sends its CPU seconds to the controller (pytest-xdist's
+    ``workeroutput``)."""
+    config = session.config
+    ahead = config.stash.get(_AHEAD, None)
     errors = ahead.finish() if ahead is not None else None
     if errors:
         print(f"\nthe process compiling {ahead.names} ahead failed:\n{errors}", file=sys.stderr)
+    if _is_worker(config):
+        cpu = ProcessCpu.of_this_process()
+        config.workeroutput["synth_cpu"] = (cpu.own, cpu.children)
     import cold_children
 
     cold_children.remove_folder()
 
 
-def pytest_terminal_summary(terminalreporter, config):
-    """The CPU time (user + system) of this process, of the children it waited for (the
-    Pythons the tests start), and of the process that compiled ahead: the test process's
-    own time is the critical path of a run on two cores."""
-    import resource
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """Keep a finished worker's CPU seconds for the summary (pytest-xdist's controller)."""
+    figures = getattr(node, "workeroutput", {}).get("synth_cpu")
+    if figures is not None:
+        node.config.stash.setdefault(_WORKERS_CPU, {})[node.gateway.id] = ProcessCpu(*figures)
 
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+
+class FileOrGroupScheduling(LoadScopeScheduling):
+    """pytest-xdist's ``loadgroup`` with the tests of a file as the unit of work (its module
+    fixtures computed once), except the tests marked ``xdist_group(NAME)``: those of every
+    file with that mark are one unit, run on one worker in turn (they share something a
+    second worker must not use at the same time)."""
+
+    def _split_scope(self, nodeid: str) -> str:
+        if nodeid.rfind("@") > nodeid.rfind("]"):  # pytest-xdist's suffix "@NAME"
+            return nodeid.rsplit("@", 1)[-1]
+        return nodeid.split("::", 1)[0]
+
+
+@pytest.hookimpl(optionalhook=True, tryfirst=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadgroup`` runs a file's tests together, not one by one, and the tests of
+    one ``xdist_group`` mark together: :class:`FileOrGroupScheduling`."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    return FileOrGroupScheduling(config, log)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """The CPU time (user + system) of the test process, of the children it waited for (the
+    Pythons the tests start), and of the process that compiled ahead; over pytest-xdist
+    workers, each worker's and their children's: a test process's own time is the
+    critical path of a run on two cores."""
+    workers = config.stash.get(_WORKERS_CPU, None)
+    if workers:
+        each = " + ".join(f"{workers[w].own:.1f}" for w in sorted(workers))
+        children = sum(cpu.children for cpu in workers.values())
+        line = f"CPU s: {len(workers)} test processes {each}, their children {children:.1f}"
+        terminalreporter.write_sep("-", line)
+        return
+    cpu = ProcessCpu.of_this_process()
     ahead = config.stash.get(_AHEAD, None)
     ahead_s = ahead.cpu_seconds if ahead is not None else 0.0
-    line = (
-        f"CPU s: test process {own.ru_utime + own.ru_stime:.1f}, its children "
-        f"{children.ru_utime + children.ru_stime - ahead_s:.1f}"
-    )
+    line = f"CPU s: test process {cpu.own:.1f}, its children {cpu.children - ahead_s:.1f}"
     if ahead is not None:
         stopped = ", stopped at the end" if ahead.stopped else ""
         line += f", compiling {', '.join(ahead.names)} ahead {ahead_s:.1f}{stopped}"
