@@ -3,6 +3,7 @@
 import functools
 import json
 import os
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -60,14 +61,18 @@ def pytest_configure(config):
 #: cache (synth.warmup.start_ahead), in this order: the stiff contact's and the live
 #: engine's, which the presets' renders (the first tests' kernels) do not compile. The
 #: stiff contact goes first: the contact tests need it before the live tests need theirs.
-#: Only a run in one process compiles ahead: a run spread over worker processes
-#: (pytest-xdist, ``-n``) keeps every core busy with tests, each worker compiling what it
-#: meets first into the numba disk cache the others load from.
-#: Set SYNTH_TEST_AHEAD=0 to compile everything in the test process.
+#: A run spread over pytest-xdist workers (``-n``) compiles them ahead too, started by the
+#: controller, so that the workers load these groups rather than each compile them; the
+#: other kernels each worker compiles when it meets them first, into the numba disk cache
+#: the other then loads from. Set SYNTH_TEST_AHEAD=0 to compile everything in the test
+#: processes.
 AHEAD_GROUPS = ("stiff-contact", "live", "live-rolling")
 #: A run of at least this many tests, or of a live engine's test file, compiles ahead.
 AHEAD_MIN_TESTS = 200
 _AHEAD = pytest.StashKey()
+#: The lock folder the controller of a run over workers gives them (before they start) and
+#: its compiling process then holds (:data:`synth.compilation.LOCKS`).
+_LOCK_FOLDER = pytest.StashKey()
 #: The CPU seconds the controller of a run over workers gathers from each worker.
 _WORKERS_CPU = pytest.StashKey()
 
@@ -93,6 +98,48 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: (-slow[item.path], -count[item.path], str(item.path)))
 
 
+def _is_controller(config) -> bool:
+    """True in the process that runs pytest-xdist workers (``-n`` 1 or more)."""
+    return config.pluginmanager.has_plugin("dsession")
+
+
+def _ahead_wanted(count: int, files) -> bool:
+    """True if a run of ``count`` tests in the files named ``files`` compiles ahead."""
+    return count >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files)
+
+
+def pytest_sessionstart(session):
+    """The controller of a run over workers: an empty lock folder in the environment the
+    workers start with (:data:`synth.compilation.LOCKS`); it holds no lock until the
+    controller compiles ahead (:func:`pytest_xdist_node_collection_finished`)."""
+    config = session.config
+    if not _is_controller(config) or os.environ.get("SYNTH_TEST_AHEAD") == "0":
+        return
+    from synth.compilation import LOCKS
+
+    folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-"))
+    config.stash[_LOCK_FOLDER] = folder
+    os.environ[LOCKS] = str(folder)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_node_collection_finished(node, ids):
+    """The controller, once the first worker has collected (before any test runs): start
+    compiling :data:`AHEAD_GROUPS` ahead into the workers' lock folder for a run that
+    reaches them."""
+    config = node.config
+    folder = config.stash.get(_LOCK_FOLDER, None)
+    if folder is None or _AHEAD in config.stash:
+        return
+    files = {nodeid.split("::", 1)[0].rsplit("/", 1)[-1] for nodeid in ids}
+    if _ahead_wanted(len(ids), files):
+        from synth import warmup
+
+        config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS), folder)
+    else:
+        config.stash[_AHEAD] = None
+
+
 def pytest_collection_finish(session):
     """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
     (the machine's second core) for a run in one process that reaches them, and the cold
@@ -104,8 +151,7 @@ def pytest_collection_finish(session):
         return
     if _is_worker(config):
         return
-    files = {item.path.name for item in session.items}
-    if len(session.items) >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files):
+    if _ahead_wanted(len(session.items), {item.path.name for item in session.items}):
         from synth import warmup
 
         config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
@@ -144,6 +190,12 @@ def pytest_sessionfinish(session):
     if _is_worker(config):
         cpu = ProcessCpu.of_this_process()
         config.workeroutput["synth_cpu"] = (cpu.own, cpu.children)
+    folder = config.stash.get(_LOCK_FOLDER, None)
+    if folder is not None:  # the controller's, if no process compiled ahead into it
+        from synth.compilation import LOCKS
+
+        os.environ.pop(LOCKS, None)
+        shutil.rmtree(folder, ignore_errors=True)
     import cold_children
 
     cold_children.remove_folder()
@@ -184,16 +236,15 @@ def pytest_terminal_summary(terminalreporter, config):
     workers, each worker's and their children's: a test process's own time is the
     critical path of a run on two cores."""
     workers = config.stash.get(_WORKERS_CPU, None)
+    ahead = config.stash.get(_AHEAD, None)
+    ahead_s = ahead.cpu_seconds if ahead is not None else 0.0
     if workers:
         each = " + ".join(f"{workers[w].own:.1f}" for w in sorted(workers))
         children = sum(cpu.children for cpu in workers.values())
         line = f"CPU s: {len(workers)} test processes {each}, their children {children:.1f}"
-        terminalreporter.write_sep("-", line)
-        return
-    cpu = ProcessCpu.of_this_process()
-    ahead = config.stash.get(_AHEAD, None)
-    ahead_s = ahead.cpu_seconds if ahead is not None else 0.0
-    line = f"CPU s: test process {cpu.own:.1f}, its children {cpu.children - ahead_s:.1f}"
+    else:
+        cpu = ProcessCpu.of_this_process()
+        line = f"CPU s: test process {cpu.own:.1f}, its children {cpu.children - ahead_s:.1f}"
     if ahead is not None:
         stopped = ", stopped at the end" if ahead.stopped else ""
         line += f", compiling {', '.join(ahead.names)} ahead {ahead_s:.1f}{stopped}"
