@@ -82,12 +82,22 @@ def _is_worker(config) -> bool:
     return hasattr(config, "workerinput")
 
 
-@pytest.hookimpl(trylast=True)
+#: The pytest-xdist group of the tests that read :func:`preset_run_from_empty_caches` (the
+#: frozen renders, the round trip): its renders are cached in the process, so these tests
+#: run on one worker, which renders each preset once.
+PRESET_RUN_GROUP = "preset-runs"
+
+
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """In a pytest-xdist worker, the files with the most tests marked slow first, then the
-    files with the most tests: the workers take files in this order
-    (:class:`FileOrGroupScheduling`), so that a long file starts early rather than last,
-    when the other worker would have nothing left to run beside it."""
+    """The tests that read the fixture ``preset_run`` in the group :data:`PRESET_RUN_GROUP`
+    (before pytest-xdist names the groups). In a pytest-xdist worker, the files with the
+    most tests marked slow first, then the files with the most tests: the workers take
+    files in this order (:class:`FileOrGroupScheduling`), so that a long file starts early
+    rather than last, when the other worker would have nothing left to run beside it."""
+    for item in items:
+        if "preset_run" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group(PRESET_RUN_GROUP))
     if not _is_worker(config):
         return
     slow: dict[Path, int] = {}
