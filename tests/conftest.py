@@ -118,6 +118,20 @@ def _ahead_wanted(count: int, files) -> bool:
     return count >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files)
 
 
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject.toml's default): a worker per usable core for a run of a folder
+    or of several files; none (the tests in this process) for a run of one file or of tests
+    of one file, which one worker would run alone (:class:`FileOrGroupScheduling`)."""
+    files = set()
+    for arg in config.args:
+        path = config.invocation_params.dir / arg.split("::", 1)[0]
+        if path.is_dir():
+            return len(os.sched_getaffinity(0))
+        files.add(path.resolve())
+    return len(os.sched_getaffinity(0)) if len(files) > 1 else 0
+
+
 def pytest_sessionstart(session):
     """The controller of a run over workers: an empty lock folder in the environment the
     workers start with (:data:`synth.compilation.LOCKS`); it holds no lock until the
