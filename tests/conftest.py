@@ -121,15 +121,13 @@ def _ahead_wanted(count: int, files) -> bool:
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_auto_num_workers(config):
     """``-n auto`` (pyproject.toml's default): a worker per usable core for a run of a folder
-    or of several files; none (the tests in this process) for a run of one file or of tests
-    of one file, which one worker would run alone (:class:`FileOrGroupScheduling`)."""
-    files = set()
-    for arg in config.args:
-        path = config.invocation_params.dir / arg.split("::", 1)[0]
-        if path.is_dir():
-            return len(os.sched_getaffinity(0))
-        files.add(path.resolve())
-    return len(os.sched_getaffinity(0)) if len(files) > 1 else 0
+    or of several files; none (the tests in this process) on one core, or for a run of one
+    file or of tests of one file, which one worker would run alone
+    (:class:`FileOrGroupScheduling`)."""
+    cores = len(os.sched_getaffinity(0))
+    paths = [config.invocation_params.dir / arg.split("::", 1)[0] for arg in config.args]
+    several = any(p.is_dir() for p in paths) or len({p.resolve() for p in paths}) > 1
+    return cores if cores > 1 and several else 0
 
 
 def pytest_sessionstart(session):
