@@ -73,6 +73,8 @@ _AHEAD = pytest.StashKey()
 #: The lock folder the controller of a run over workers gives them (before they start) and
 #: its compiling process then holds (:data:`synth.compilation.LOCKS`).
 _LOCK_FOLDER = pytest.StashKey()
+#: The controller's folder of the workers' groups (:data:`GROUPS_FOLDER`).
+_GROUPS = pytest.StashKey()
 #: The CPU seconds the controller of a run over workers gathers from each worker.
 _WORKERS_CPU = pytest.StashKey()
 
@@ -100,12 +102,45 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.xdist_group(PRESET_RUN_GROUP))
     if not _is_worker(config):
         return
+    _write_groups(config, items)
     slow: dict[Path, int] = {}
     count: dict[Path, int] = {}
     for item in items:
         slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
         count[item.path] = count.get(item.path, 0) + 1
     items.sort(key=lambda item: (-slow[item.path], -count[item.path], str(item.path)))
+
+
+#: Environment variable: the folder in which each pytest-xdist worker writes the groups of
+#: its tests (``xdist_group`` marks, a JSON object nodeid -> group) for the controller's
+#: :class:`FileOrGroupScheduling`: pytest-xdist's own mark of a group on the test's id does
+#: not reach pytest 9's ids.
+GROUPS_FOLDER = "SYNTH_TEST_XDIST_GROUPS"
+
+
+def _write_groups(config, items) -> None:
+    """A worker's groups of its tests, written whole (atomically) into :data:`GROUPS_FOLDER`."""
+    folder = os.environ.get(GROUPS_FOLDER)
+    if not folder:
+        return
+    groups = {}
+    for item in items:
+        mark = item.get_closest_marker("xdist_group")
+        if mark is not None:
+            groups[item.nodeid] = str(mark.args[0] if mark.args else mark.kwargs["name"])
+    path = Path(folder) / f"{config.workerinput['workerid']}.json"
+    part = path.with_suffix(".part")
+    part.write_text(json.dumps(groups))
+    os.replace(part, path)
+
+
+def _read_groups() -> dict[str, str]:
+    """The groups the workers wrote (:func:`_write_groups`), nodeid -> group."""
+    folder = os.environ.get(GROUPS_FOLDER)
+    groups = {}
+    for path in sorted(Path(folder).glob("*.json")) if folder else ():
+        groups.update(json.loads(path.read_text()))
+    return groups
 
 
 def _is_controller(config) -> bool:
@@ -131,11 +166,17 @@ def pytest_xdist_auto_num_workers(config):
 
 
 def pytest_sessionstart(session):
-    """The controller of a run over workers: an empty lock folder in the environment the
-    workers start with (:data:`synth.compilation.LOCKS`); it holds no lock until the
+    """The controller of a run over workers: a folder for the workers' groups
+    (:data:`GROUPS_FOLDER`) and an empty lock folder in the environment the workers start
+    with (:data:`synth.compilation.LOCKS`); the lock folder holds no lock until the
     controller compiles ahead (:func:`pytest_xdist_node_collection_finished`)."""
     config = session.config
-    if not _is_controller(config) or os.environ.get("SYNTH_TEST_AHEAD") == "0":
+    if not _is_controller(config):
+        return
+    groups = Path(tempfile.mkdtemp(prefix="synth-xdist-groups-"))
+    config.stash[_GROUPS] = groups
+    os.environ[GROUPS_FOLDER] = str(groups)
+    if os.environ.get("SYNTH_TEST_AHEAD") == "0":
         return
     from synth.compilation import LOCKS
 
@@ -218,6 +259,9 @@ def pytest_sessionfinish(session):
 
         os.environ.pop(LOCKS, None)
         shutil.rmtree(folder, ignore_errors=True)
+    if _GROUPS in config.stash:
+        os.environ.pop(GROUPS_FOLDER, None)
+        shutil.rmtree(config.stash[_GROUPS], ignore_errors=True)
     import cold_children
 
     cold_children.remove_folder()
@@ -235,11 +279,16 @@ class FileOrGroupScheduling(LoadScopeScheduling):
     """pytest-xdist's ``loadgroup`` with the tests of a file as the unit of work (its module
     fixtures computed once), except the tests marked ``xdist_group(NAME)``: those of every
     file with that mark are one unit, run on one worker in turn (they share something a
-    second worker must not use at the same time)."""
+    second worker must not use at the same time). The groups are those the workers wrote
+    (:data:`GROUPS_FOLDER`), read once all have collected."""
+
+    _groups: dict[str, str] | None = None
 
     def _split_scope(self, nodeid: str) -> str:
-        if nodeid.rfind("@") > nodeid.rfind("]"):  # pytest-xdist's suffix "@NAME"
-            return nodeid.rsplit("@", 1)[-1]
+        if self._groups is None:
+            self._groups = _read_groups()
+        if nodeid in self._groups:
+            return "@" + self._groups[nodeid]
         return nodeid.split("::", 1)[0]
 
 
