@@ -227,17 +227,18 @@ class Ahead:
         return text if status > 0 else None
 
 
-def start_ahead(names: list[str]) -> Ahead | None:
+def start_ahead(names: list[str], folder: Path | None = None) -> Ahead | None:
     """Start a child process that compiles those of the kernel groups ``names`` that are
     not in numba's disk cache (:func:`compile_ahead`), while this one goes on, and return
     once it holds their locks; this process and its children (:data:`LOCKS` in the
-    environment) then wait for a group it holds rather than compile it too. None if
-    every group is cached, or the child ended before it held the locks (POSIX locks
-    missing)."""
+    environment) then wait for a group it holds rather than compile it too. The locks go
+    in ``folder`` (an empty folder; default: a new temporary one), which processes started
+    before may already have as :data:`LOCKS`. None if every group is cached, or the child
+    ended before it held the locks (POSIX locks missing)."""
     missing = [name for name in names if not is_cached(GROUPS[name])]
     if not missing:
         return None
-    folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-"))
+    folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-")) if folder is None else folder
     same_cache_file(folder).write_text(os.environ.get("NUMBA_CACHE_DIR", ""))
     env = {k: v for k, v in os.environ.items() if k != LOCKS}
     code = "import sys; from synth import warmup; warmup.compile_ahead(sys.argv[1], sys.argv[2:])"

@@ -1,8 +1,9 @@
 """The cold children of tests/test_cold.py: processes on empty numba caches whose compiles and
 renders those tests read. They cost a whole compile each (tens of seconds of CPU), so a run of
-the whole suite starts them at its start, beside the tests (tests/conftest.py,
+the whole suite in one process starts them at its start, beside the tests (tests/conftest.py,
 :func:`start_early`), at a lower priority: the test process keeps its core and the children
-take what the other core leaves."""
+take what the other core leaves. A pytest-xdist worker runs them when a test first reads
+them, while the other worker goes on."""
 
 from __future__ import annotations
 

@@ -3,6 +3,7 @@
 import functools
 import json
 import os
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from xdist.scheduler import LoadScopeScheduling
 
 #: The repository (or the fresh copy CI runs in) that holds these tests.
 REPOSITORY = Path(__file__).resolve().parents[1]
@@ -59,56 +61,261 @@ def pytest_configure(config):
 #: cache (synth.warmup.start_ahead), in this order: the stiff contact's and the live
 #: engine's, which the presets' renders (the first tests' kernels) do not compile. The
 #: stiff contact goes first: the contact tests need it before the live tests need theirs.
-#: Set SYNTH_TEST_AHEAD=0 to compile everything in the test process.
+#: A run spread over pytest-xdist workers (``-n``) compiles them ahead too, started by the
+#: controller, so that the workers load these groups rather than each compile them; the
+#: other kernels each worker compiles when it meets them first, into the numba disk cache
+#: the other then loads from. Set SYNTH_TEST_AHEAD=0 to compile everything in the test
+#: processes.
 AHEAD_GROUPS = ("stiff-contact", "live", "live-rolling")
 #: A run of at least this many tests, or of a live engine's test file, compiles ahead.
 AHEAD_MIN_TESTS = 200
 _AHEAD = pytest.StashKey()
+#: The lock folder the controller of a run over workers gives them (before they start) and
+#: its compiling process then holds (:data:`synth.compilation.LOCKS`).
+_LOCK_FOLDER = pytest.StashKey()
+#: The controller's folder of the workers' groups (:data:`GROUPS_FOLDER`).
+_GROUPS = pytest.StashKey()
+#: The CPU seconds the controller of a run over workers gathers from each worker.
+_WORKERS_CPU = pytest.StashKey()
+
+
+def _is_worker(config) -> bool:
+    """True in a pytest-xdist worker process."""
+    return hasattr(config, "workerinput")
+
+
+#: The pytest-xdist group of the tests that read :func:`preset_run_from_empty_caches` (the
+#: frozen renders, the round trip): its renders are cached in the process, so these tests
+#: run on one worker, which renders each preset once.
+PRESET_RUN_GROUP = "preset-runs"
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """The tests that read the fixture ``preset_run`` in the group :data:`PRESET_RUN_GROUP`
+    (before pytest-xdist names the groups). In a pytest-xdist worker, the files with the
+    most tests marked slow first, then the files with the most tests: the workers take
+    files in this order (:class:`FileOrGroupScheduling`), so that a long file starts early
+    rather than last, when the other worker would have nothing left to run beside it."""
+    for item in items:
+        if "preset_run" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.xdist_group(PRESET_RUN_GROUP))
+    if not _is_worker(config):
+        return
+    _write_groups(config, items)
+    slow: dict[Path, int] = {}
+    count: dict[Path, int] = {}
+    for item in items:
+        slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
+        count[item.path] = count.get(item.path, 0) + 1
+    items.sort(key=lambda item: (-slow[item.path], -count[item.path], str(item.path)))
+
+
+#: Environment variable: the folder in which each pytest-xdist worker writes the groups of
+#: its tests (``xdist_group`` marks, a JSON object nodeid -> group) for the controller's
+#: :class:`FileOrGroupScheduling`: pytest-xdist's own mark of a group on the test's id does
+#: not reach pytest 9's ids.
+GROUPS_FOLDER = "SYNTH_TEST_XDIST_GROUPS"
+
+
+def _write_groups(config, items) -> None:
+    """A worker's groups of its tests, written whole (atomically) into :data:`GROUPS_FOLDER`."""
+    folder = os.environ.get(GROUPS_FOLDER)
+    if not folder:
+        return
+    groups = {}
+    for item in items:
+        mark = item.get_closest_marker("xdist_group")
+        if mark is not None:
+            groups[item.nodeid] = str(mark.args[0] if mark.args else mark.kwargs["name"])
+    path = Path(folder) / f"{config.workerinput['workerid']}.json"
+    part = path.with_suffix(".part")
+    part.write_text(json.dumps(groups))
+    os.replace(part, path)
+
+
+def _read_groups() -> dict[str, str]:
+    """The groups the workers wrote (:func:`_write_groups`), nodeid -> group."""
+    folder = os.environ.get(GROUPS_FOLDER)
+    groups = {}
+    for path in sorted(Path(folder).glob("*.json")) if folder else ():
+        groups.update(json.loads(path.read_text()))
+    return groups
+
+
+def _is_controller(config) -> bool:
+    """True in the process that runs pytest-xdist workers (``-n`` 1 or more)."""
+    return config.pluginmanager.has_plugin("dsession")
+
+
+def _ahead_wanted(count: int, files) -> bool:
+    """True if a run of ``count`` tests in the files named ``files`` compiles ahead."""
+    return count >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject.toml's default): a worker per usable core for a run of a folder
+    or of several files; none (the tests in this process) on one core, or for a run of one
+    file or of tests of one file, which one worker would run alone
+    (:class:`FileOrGroupScheduling`)."""
+    cores = len(os.sched_getaffinity(0))
+    paths = [config.invocation_params.dir / arg.split("::", 1)[0] for arg in config.args]
+    several = any(p.is_dir() for p in paths) or len({p.resolve() for p in paths}) > 1
+    return cores if cores > 1 and several else 0
+
+
+def pytest_sessionstart(session):
+    """The controller of a run over workers: a folder for the workers' groups
+    (:data:`GROUPS_FOLDER`) and an empty lock folder in the environment the workers start
+    with (:data:`synth.compilation.LOCKS`); the lock folder holds no lock until the
+    controller compiles ahead (:func:`pytest_xdist_node_collection_finished`)."""
+    config = session.config
+    if not _is_controller(config):
+        return
+    groups = Path(tempfile.mkdtemp(prefix="synth-xdist-groups-"))
+    config.stash[_GROUPS] = groups
+    os.environ[GROUPS_FOLDER] = str(groups)
+    if os.environ.get("SYNTH_TEST_AHEAD") == "0":
+        return
+    from synth.compilation import LOCKS
+
+    folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-"))
+    config.stash[_LOCK_FOLDER] = folder
+    os.environ[LOCKS] = str(folder)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_node_collection_finished(node, ids):
+    """The controller, once the first worker has collected (before any test runs): start
+    compiling :data:`AHEAD_GROUPS` ahead into the workers' lock folder for a run that
+    reaches them."""
+    config = node.config
+    folder = config.stash.get(_LOCK_FOLDER, None)
+    if folder is None or _AHEAD in config.stash:
+        return
+    files = {nodeid.split("::", 1)[0].rsplit("/", 1)[-1] for nodeid in ids}
+    if _ahead_wanted(len(ids), files):
+        from synth import warmup
+
+        config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS), folder)
+    else:
+        config.stash[_AHEAD] = None
 
 
 def pytest_collection_finish(session):
     """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
-    (the machine's second core) for a run that reaches them, and the cold children of
-    tests/test_cold.py beside the tests for a run that reads them."""
-    if os.environ.get("SYNTH_TEST_AHEAD") == "0" or session.config.option.collectonly:
+    (the machine's second core) for a run in one process that reaches them, and the cold
+    children of tests/test_cold.py beside the tests for such a run that reads them (a
+    pytest-xdist worker runs them when its first test reads them: a second worker would
+    start them too)."""
+    config = session.config
+    if os.environ.get("SYNTH_TEST_AHEAD") == "0" or config.option.collectonly:
         return
-    files = {item.path.name for item in session.items}
-    if len(session.items) >= AHEAD_MIN_TESTS or any(f.startswith("test_live") for f in files):
+    if _is_worker(config):
+        return
+    if _ahead_wanted(len(session.items), {item.path.name for item in session.items}):
         from synth import warmup
 
-        session.config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
+        config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
     if any("cold_children" in getattr(item, "fixturenames", ()) for item in session.items):
         import cold_children
 
         cold_children.start_early()
 
 
+@dataclass(frozen=True)
+class ProcessCpu:
+    """The CPU seconds (user + system) of a test process and of the children it waited for
+    (the Pythons the tests start, the process compiling ahead among them)."""
+
+    own: float
+    children: float
+
+    @classmethod
+    def of_this_process(cls) -> "ProcessCpu":
+        import resource
+
+        own = resource.getrusage(resource.RUSAGE_SELF)
+        children = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return cls(own.ru_utime + own.ru_stime, children.ru_utime + children.ru_stime)
+
+
 def pytest_sessionfinish(session):
     """Stop the compiling process if it still runs; say so if it failed. Remove the cold
-    children's folder."""
-    ahead = session.config.stash.get(_AHEAD, None)
+    children's folder. A worker sends its CPU seconds to the controller (pytest-xdist's
+    ``workeroutput``)."""
+    config = session.config
+    ahead = config.stash.get(_AHEAD, None)
     errors = ahead.finish() if ahead is not None else None
     if errors:
         print(f"\nthe process compiling {ahead.names} ahead failed:\n{errors}", file=sys.stderr)
+    if _is_worker(config):
+        cpu = ProcessCpu.of_this_process()
+        config.workeroutput["synth_cpu"] = (cpu.own, cpu.children)
+    folder = config.stash.get(_LOCK_FOLDER, None)
+    if folder is not None:  # the controller's, if no process compiled ahead into it
+        from synth.compilation import LOCKS
+
+        os.environ.pop(LOCKS, None)
+        shutil.rmtree(folder, ignore_errors=True)
+    if _GROUPS in config.stash:
+        os.environ.pop(GROUPS_FOLDER, None)
+        shutil.rmtree(config.stash[_GROUPS], ignore_errors=True)
     import cold_children
 
     cold_children.remove_folder()
 
 
-def pytest_terminal_summary(terminalreporter, config):
-    """The CPU time (user + system) of this process, of the children it waited for (the
-    Pythons the tests start), and of the process that compiled ahead: the test process's
-    own time is the critical path of a run on two cores."""
-    import resource
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """Keep a finished worker's CPU seconds for the summary (pytest-xdist's controller)."""
+    figures = getattr(node, "workeroutput", {}).get("synth_cpu")
+    if figures is not None:
+        node.config.stash.setdefault(_WORKERS_CPU, {})[node.gateway.id] = ProcessCpu(*figures)
 
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+
+class FileOrGroupScheduling(LoadScopeScheduling):
+    """pytest-xdist's ``loadgroup`` with the tests of a file as the unit of work (its module
+    fixtures computed once), except the tests marked ``xdist_group(NAME)``: those of every
+    file with that mark are one unit, run on one worker in turn (they share something a
+    second worker must not use at the same time). The groups are those the workers wrote
+    (:data:`GROUPS_FOLDER`), read once all have collected."""
+
+    _groups: dict[str, str] | None = None
+
+    def _split_scope(self, nodeid: str) -> str:
+        if self._groups is None:
+            self._groups = _read_groups()
+        if nodeid in self._groups:
+            return "@" + self._groups[nodeid]
+        return nodeid.split("::", 1)[0]
+
+
+@pytest.hookimpl(optionalhook=True, tryfirst=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadgroup`` runs a file's tests together, not one by one, and the tests of
+    one ``xdist_group`` mark together: :class:`FileOrGroupScheduling`."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    return FileOrGroupScheduling(config, log)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """The CPU time (user + system) of the test process, of the children it waited for (the
+    Pythons the tests start), and of the process that compiled ahead; over pytest-xdist
+    workers, each worker's and their children's: a test process's own time is the
+    critical path of a run on two cores."""
+    workers = config.stash.get(_WORKERS_CPU, None)
     ahead = config.stash.get(_AHEAD, None)
     ahead_s = ahead.cpu_seconds if ahead is not None else 0.0
-    line = (
-        f"CPU s: test process {own.ru_utime + own.ru_stime:.1f}, its children "
-        f"{children.ru_utime + children.ru_stime - ahead_s:.1f}"
-    )
+    if workers:
+        each = " + ".join(f"{workers[w].own:.1f}" for w in sorted(workers))
+        children = sum(cpu.children for cpu in workers.values())
+        line = f"CPU s: {len(workers)} test processes {each}, their children {children:.1f}"
+    else:
+        cpu = ProcessCpu.of_this_process()
+        line = f"CPU s: test process {cpu.own:.1f}, its children {cpu.children - ahead_s:.1f}"
     if ahead is not None:
         stopped = ", stopped at the end" if ahead.stopped else ""
         line += f", compiling {', '.join(ahead.names)} ahead {ahead_s:.1f}{stopped}"

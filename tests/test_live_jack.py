@@ -17,9 +17,13 @@ import synth
 from benchmarks.jack import JackDummyServer, jackd_available
 from synth.live import state as st
 
-pytestmark = pytest.mark.skipif(
-    not jackd_available(), reason="jackd is not installed (Debian: apt-get install jackd2)"
-)
+pytestmark = [
+    pytest.mark.skipif(
+        not jackd_available(), reason="jackd is not installed (Debian: apt-get install jackd2)"
+    ),
+    # one JACK server at a time: the tests of every file that starts one run on one worker
+    pytest.mark.xdist_group("jack"),
+]
 
 FS = 48000
 BLOCK = 256

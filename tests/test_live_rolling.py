@@ -256,6 +256,7 @@ def busy_python(stop):
 
 
 @pytest.mark.slow  # a JACK server and 4 s of stream
+@pytest.mark.xdist_group("jack")  # with tests/test_live_jack.py: one JACK server at a time
 def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
     # the game's thread updates the voice every 16 ms for 2 s, then as long again while a
     # pure-Python thread spins: the stream plays it, every block of its life (the
