@@ -493,3 +493,25 @@ def dashpot_point():
     residual of rate 0: a pure dashpot of admittance ``1 / Z_inf`` (s/kg), i.e. the modal
     contact reduced exactly to the impedance model (at the plate's centre by default)."""
     return _dashpot_point
+
+
+def analysis_tick(time, restitution=None, speed=None, decay_time=0.01, flags=()):
+    """An analysis :class:`~synth.analysis.report.Tick` at ``time`` s for scoring and validity
+    tests: unit energy and peak, a 1 kHz centroid, a 20 ms window, a strength of 10."""
+    from synth.analysis.report import Tick
+
+    return Tick(
+        index=1,
+        time=time,
+        bounce_time=None,
+        restitution=restitution,
+        speed=speed,
+        energy=1.0,
+        peak=1.0,
+        centroid=1000.0,
+        spread=100.0,
+        decay_time=decay_time,
+        window=0.02,
+        strength=10.0,
+        flags=tuple(flags),
+    )

@@ -5,11 +5,11 @@ analysis must not report (a false tick, an impossible value) and how each rule k
 
 import numpy as np
 import pytest
+from conftest import analysis_tick
 
 from benchmarks.analysis_scenes import SceneSpec, run_scene
 from synth.analysis.detection import stand_out
 from synth.analysis.options import AnalysisOptions
-from synth.analysis.report import Tick
 from synth.analysis.settings import make_settings
 from synth.analysis.validity import (
     SPECTRAL_RISE_MIN_SPAN,
@@ -19,32 +19,15 @@ from synth.analysis.validity import (
 )
 
 
-def _tick(time, restitution=None, decay_time=None):
-    return Tick(
-        index=1,
-        time=time,
-        bounce_time=None,
-        restitution=restitution,
-        speed=None,
-        energy=1.0,
-        peak=1.0,
-        centroid=1000.0,
-        spread=100.0,
-        decay_time=decay_time,
-        window=0.02,
-        strength=10.0,
-    )
-
-
 def test_an_undecaying_second_tick_cut_by_the_end_is_dropped():
     # a second tick has no bounce before its own to be shorter than: one that does not ring
     # down and whose window the recording's end cuts (the start of a render's fade-out) is
     # confirmed by nothing, and dropped; a third tick whose bounce shrank continues the series
-    first = _tick(0.005, decay_time=0.01)
-    cut = _tick(1.155)
+    first = analysis_tick(0.005, decay_time=0.01)
+    cut = analysis_tick(1.155, decay_time=None)
     assert without_spurious_end([first, cut], 1.16, 0.02) == [first]
-    second = _tick(0.1, decay_time=0.01)
-    third = _tick(1.155, restitution=0.8)
+    second = analysis_tick(0.1, decay_time=0.01)
+    third = analysis_tick(1.155, restitution=0.8, decay_time=None)
     kept = [first, second, third]
     assert without_spurious_end(kept, 1.16, 0.02) == kept
     # within the window of the end only: a second tick far from it stays

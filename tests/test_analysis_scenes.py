@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import analysis_tick
 
 from benchmarks.analysis_scenes import (
     Truth,
@@ -20,7 +21,7 @@ from benchmarks.analysis_scenes import (
     run_scene,
     score,
 )
-from synth.analysis.report import GROWN_BOUNCE, Tick
+from synth.analysis.report import GROWN_BOUNCE
 from synth.analysis.validity import (
     RISE_FALSE_ALARM,
     SPECTRAL_RISE_DB,
@@ -49,30 +50,12 @@ def _scored(spec, limit=None):
     return _score_once(spec, limit)
 
 
-def _tick(time, restitution=None, speed=None, flags=()):
-    return Tick(
-        index=1,
-        time=time,
-        bounce_time=None,
-        restitution=restitution,
-        speed=speed,
-        energy=1.0,
-        peak=1.0,
-        centroid=1000.0,
-        spread=100.0,
-        decay_time=0.01,
-        window=0.02,
-        strength=10.0,
-        flags=flags,
-    )
-
-
 def _series(times):
     """Ticks at ``times`` (s) with the restitutions their bounce times give."""
     t = np.asarray(times, dtype=float)
-    out = [_tick(t[0]), _tick(t[1])]
+    out = [analysis_tick(t[0]), analysis_tick(t[1])]
     for n in range(2, t.size):
-        out.append(_tick(t[n], restitution=(t[n] - t[n - 1]) / (t[n - 1] - t[n - 2])))
+        out.append(analysis_tick(t[n], restitution=(t[n] - t[n - 1]) / (t[n - 1] - t[n - 2])))
     return out
 
 
@@ -121,11 +104,11 @@ def test_score_counts_false_ticks_impossible_values_and_audible_misses():
         fall_speed=2.0,
     )
     ticks = [
-        _tick(0.1002),
-        _tick(0.1005),  # a second tick on the first impact: false
-        _tick(0.5, restitution=1.2, flags=(GROWN_BOUNCE,)),  # found, impossible value
-        _tick(0.8015, speed=3.0),  # within the 2 ms contact: found; faster than the fall
-        _tick(0.7),  # no impact there: false
+        analysis_tick(0.1002),
+        analysis_tick(0.1005),  # a second tick on the first impact: false
+        analysis_tick(0.5, restitution=1.2, flags=(GROWN_BOUNCE,)),  # found, impossible value
+        analysis_tick(0.8015, speed=3.0),  # within the 2 ms contact: found; faster than the fall
+        analysis_tick(0.7),  # no impact there: false
     ]
     false, impossible, missed = score(truth, ticks)
     assert (false, impossible, missed) == (2, 2, 0)
@@ -156,18 +139,19 @@ def test_score_judges_a_restitution_against_the_true_ratio():
         fall_speed=2.0,
     )
     ticks = [
-        _tick(0.1),
-        _tick(0.3),
-        _tick(0.4, restitution=0.5),
-        _tick(0.5023, restitution=1.021),
-        _tick(0.6, flags=(AFTER_GROWN,)),
-        _tick(0.68, restitution=1.05),
+        analysis_tick(0.1),
+        analysis_tick(0.3),
+        analysis_tick(0.4, restitution=0.5),
+        analysis_tick(0.5023, restitution=1.021),
+        analysis_tick(0.6, flags=(AFTER_GROWN,)),
+        analysis_tick(0.68, restitution=1.05),
     ]
     assert score(truth, ticks) == (0, 1, 0)
-    ticks[4] = _tick(0.6, restitution=0.95, flags=(MISSED_BOUNCE,))
+    ticks[4] = analysis_tick(0.6, restitution=0.95, flags=(MISSED_BOUNCE,))
     assert score(truth, ticks) == (0, 2, 0)
     # a false tick among the three: no true ratio shows growth
-    assert score(truth, [*ticks[:3], _tick(0.45), _tick(0.5023, restitution=1.1)]) == (1, 1, 2)
+    wrong = [*ticks[:3], analysis_tick(0.45), analysis_tick(0.5023, restitution=1.1)]
+    assert score(truth, wrong) == (1, 1, 2)
 
 
 def test_spectral_rise_of_free_ringing_and_of_an_impact():
