@@ -3,6 +3,7 @@ excitation through the all-pole ``1/A`` over ``window`` from its onset."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -102,13 +103,8 @@ class TickMeter:
             bounce_time=bt,
             restitution=None if i < 2 else float(bt / ((t[i - 1] - t[i - 2]) / fs)),
             speed=None if bt is None else float(settings.gravity * bt / 2.0),
-            energy=m.energy,
-            peak=m.peak,
-            centroid=m.centroid,
-            spread=m.spread,
-            decay_time=m.decay_time,
-            window=m.window,
             strength=float(self.found[i].strength),
+            **dataclasses.asdict(m),
         )
 
     def sound(self, i: int) -> SoundMeasures:
