@@ -107,37 +107,42 @@ def _reference_force(x, w, lam, n, c, b):
     return np.maximum(0.0, (a + d * w) / (1.0 + lam * d))
 
 
-def scipy_contact(
-    case: ContactCase, method: str = "Radau", rtol: float = 1e-12, atol: float = 1e-15
-) -> tuple:
-    """The same impact integrated by ``scipy.integrate.solve_ivp`` (an independent
-    implementation of the same dimensionless equations), for reference and comparison.
+@dataclass(frozen=True)
+class ScaledEquations:
+    """The dimensionless impact equations of a case (x the penetration over theta, w its rate
+    over v0, s the time over theta), written with plain Python for an independent reference."""
 
-    Returns (restitution, contact_time (s), sol (dense output in s, dimensionless), theta);
-    the contact time as :class:`synth.physics.contact.ImpactResult`'s, the force pulse's
-    length (with a loss the last downward zero of the force, before the penetration's).
-    """
-    from scipy.integrate import solve_ivp
+    lam: float
+    G: float
+    c: float
+    b: float
+    n: float
 
-    theta, lam, G, c, b = _scaled(case)
-    n = case.exponent
+    @classmethod
+    def of(cls, case: ContactCase) -> ScaledEquations:
+        _, lam, G, c, b = _scaled(case)
+        return cls(lam, G, c, b, case.exponent)
 
-    def force(x, w):
+    @property
+    def lossy(self) -> bool:
+        return self.c != 0.0 or self.b != 0.0
+
+    def force(self, x, w) -> float:
         if x <= 0.0:
             return 0.0
-        a = x**n
-        if c == 0.0 and b == 0.0:
-            return a
-        return float(_reference_force(x, w, lam, n, c, b))
+        if not self.lossy:
+            return x**self.n
+        return float(_reference_force(x, w, self.lam, self.n, self.c, self.b))
 
-    def rhs(s, y):
-        f = force(y[0], y[1])
-        return [y[1] - lam * f, G - f]
+    def rhs(self, s, y):
+        f = self.force(y[0], y[1])
+        return [y[1] - self.lam * f, self.G - f]
 
-    def jac(s, y):
+    def jacobian(self, s, y):
         x, w = y
         if x <= 0.0:
             return [[0.0, 1.0], [0.0, 0.0]]
+        n, c, b, lam = self.n, self.c, self.b, self.lam
         a = x**n
         da = n * a / x
         r = math.sqrt(x)
@@ -151,6 +156,32 @@ def scipy_contact(
             fx, fw = 0.0, 0.0
         return [[-lam * fx, 1.0 - lam * fw], [-fx, -fw]]
 
+    def settle_energy(self, s, y) -> float:
+        """The energy above the settled state's: it falls through 0 when the ball settles."""
+        x, w = y
+        n, lam, G = self.n, self.lam, self.G
+        u = lam * G - w
+        W = 0.5 * u * u + (x ** (n + 1) / (n + 1) - G * x if x > 0 else 0.0)
+        return W - 0.5 * (lam * G) ** 2
+
+    def unclipped_force(self, s, y) -> float:
+        """The lossy force's sign before its clip at 0 (the pulse's end)."""
+        x, w = y
+        return x**self.n * (1.0 + self.c * w) + self.b * math.sqrt(x) * w if x > 0.0 else x
+
+    def start(self) -> tuple[float, list]:
+        """A start a hair after first touch, so that the x = 0 event does not fire at s = 0:
+        the first terms of the series solution, x = s + G s^2/2, w = 1 + G s; the viscoelastic
+        force b s^(1/2) adds - 2/3 b s^(3/2) to w and - 2/3 lam b s^(3/2) to x."""
+        s0 = 1e-10
+        v = 2.0 / 3.0 * self.b * s0**1.5
+        return s0, [s0 + 0.5 * self.G * s0 * s0 - self.lam * v, 1.0 + self.G * s0 - v]
+
+
+def _events(eq: ScaledEquations) -> list:
+    """solve_ivp's events: the separation (x = 0), the settling when the ball can settle
+    (gravity with a loss), the lossy force's end."""
+
     def end(s, y):
         return y[0]
 
@@ -158,52 +189,65 @@ def scipy_contact(
     end.direction = -1
 
     def settle(s, y):
-        x, w = y
-        u = lam * G - w
-        W = 0.5 * u * u + (x ** (n + 1) / (n + 1) - G * x if x > 0 else 0.0)
-        return W - 0.5 * (lam * G) ** 2
+        return eq.settle_energy(s, y)
 
     settle.terminal = True
     settle.direction = -1
 
-    def force_end(s, y):  # the lossy force's sign before its clip at 0
-        x, w = y
-        return x**n * (1.0 + c * w) + b * math.sqrt(x) * w if x > 0.0 else x
+    def force_end(s, y):
+        return eq.unclipped_force(s, y)
 
     force_end.direction = -1
+    events = [end, settle] if (eq.G > 0 and (eq.lam > 0 or eq.lossy)) else [end]
+    return events + [force_end] if eq.lossy else events
 
-    events = [end, settle] if (G > 0 and (lam > 0 or c > 0 or b > 0)) else [end]
-    lossy = c != 0.0 or b != 0.0
-    if lossy:
-        events.append(force_end)
-    kw = dict(jac=jac) if method in ("Radau", "BDF", "LSODA") else {}
-    # start a hair after first touch so that the x = 0 event does not fire at s = 0
-    # (with the first terms of the series solution there: x = s + G s^2/2, w = 1 + G s;
-    # the viscoelastic force b s^(1/2) adds - 2/3 b s^(3/2) to w and - 2/3 lam b s^(3/2) to x)
-    s0 = 1e-10
-    v = 2.0 / 3.0 * b * s0**1.5
-    y0 = [s0 + 0.5 * G * s0 * s0 - lam * v, 1.0 + G * s0 - v]
+
+@dataclass(frozen=True)
+class ReferenceImpact:
+    """An impact integrated by scipy: restitution, contact time (s), the dense solution
+    (dimensionless time and state) and the time scale theta (s)."""
+
+    restitution: float
+    contact_time: float
+    solution: object
+    theta: float
+
+
+def scipy_contact(
+    case: ContactCase, method: str = "Radau", rtol: float = 1e-12, atol: float = 1e-15
+) -> ReferenceImpact:
+    """The same impact integrated by ``scipy.integrate.solve_ivp`` (an independent
+    implementation of the same dimensionless equations), for reference and comparison.
+
+    The contact time as :class:`synth.physics.contact.ImpactResult`'s, the force pulse's
+    length (with a loss the last downward zero of the force, before the penetration's).
+    """
+    from scipy.integrate import solve_ivp
+
+    eq = ScaledEquations.of(case)
+    kw = dict(jac=eq.jacobian) if method in ("Radau", "BDF", "LSODA") else {}
+    s0, y0 = eq.start()
     sol = solve_ivp(
-        rhs,
+        eq.rhs,
         (s0, 1e9),
         y0,
         method=method,
         rtol=rtol,
         atol=atol,
-        events=events,
+        events=_events(eq),
         dense_output=True,
         **kw,
     )
     if sol.t_events[0].size:
         s_end = sol.t_events[0][0]
-        w_end = sol.y_events[0][0][1]
-        e = max(0.0, -w_end)
-        if lossy and sol.t_events[-1].size:
+        e = max(0.0, -sol.y_events[0][0][1])
+        if eq.lossy and sol.t_events[-1].size:
             s_end = min(s_end, sol.t_events[-1][-1])  # the force pulse's end
     else:
         s_end = sol.t_events[1][0] if len(sol.t_events) > 1 and sol.t_events[1].size else sol.t[-1]
         e = 0.0
-    return e, s_end * theta, sol, theta
+    theta = _scaled(case)[0]
+    return ReferenceImpact(e, s_end * theta, sol, theta)
 
 
 def _pulse_error(res, sol, theta, case):
@@ -256,7 +300,8 @@ def run_contact(
     for meth in ("DOP853", "Radau"):
         contact.solve_contact(mass=1e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=meth)
     for case in cases:
-        e_ref, tau_ref, sol, theta = scipy_contact(case)
+        ref = scipy_contact(case)
+        e_ref, tau_ref = ref.restitution, ref.contact_time
         kw = case.solver_arguments()
         ours_default = None
         for tol in tolerances:
@@ -275,7 +320,7 @@ def run_contact(
                 settled=bool(res.settled),
                 err_restitution=err_e,
                 err_contact_time=abs(res.contact_time - tau_ref) / tau_ref,
-                err_pulse=_pulse_error(res, sol, theta, case),
+                err_pulse=_pulse_error(res, ref.solution, ref.theta, case),
                 energy_residual=res.energy_residual,
                 steps=res.n_steps,
                 method=res.method,
@@ -288,10 +333,12 @@ def run_contact(
         target = max(ours_default["err_restitution"], ours_default["err_contact_time"], 1e-13)
         match = None
         for srtol in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
-            e_s, tau_s, _, _ = scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6)
+            s = scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6)
             err = max(
-                abs(e_s - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(e_s),
-                abs(tau_s - tau_ref) / tau_ref,
+                abs(s.restitution - e_ref) / max(e_ref, 1e-300)
+                if e_ref > 0
+                else abs(s.restitution),
+                abs(s.contact_time - tau_ref) / tau_ref,
             )
             if err <= target:
                 match = (srtol, err)

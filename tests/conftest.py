@@ -395,8 +395,8 @@ def _scipy_reference(case):
     """scipy's Radau at rtol 1e-12 for a :class:`benchmarks.contact.ContactCase`: (e, tau)."""
     from benchmarks.contact import scipy_contact
 
-    e, tau, _, _ = scipy_contact(case)
-    return e, tau
+    ref = scipy_contact(case)
+    return ref.restitution, ref.contact_time
 
 
 def _assert_honours_rtol(case, rtol):

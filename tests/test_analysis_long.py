@@ -319,7 +319,8 @@ def test_candidate_rules_are_the_array_formulation():
     libm), the candidates exactly."""
     from synth.analysis.deflation import Rules, _rules, running_median
 
-    def arrays(d, sub, lead, first, bg, noise, thr, fade, rise, floor, kappa, span, origin, cut):
+    def arrays(d, sub, lead, first, rules: Rules):
+        bg, noise, thr, fade, rise, floor, kappa, span, origin, cut = rules
         k = np.arange(d.size)
         a = max(0, first - bg - 3)
         med = np.full_like(d, np.nan)
@@ -372,7 +373,7 @@ def test_candidate_rules_are_the_array_formulation():
         )
         lead = np.where(frames.random(n) < 0.5, d, frames.exponential(size=n))
         got = _rules(d, sub, lead, args[0], Rules(*args[1:]))
-        want = arrays(d, sub, lead, *args)
+        want = arrays(d, sub, lead, args[0], Rules(*args[1:]))
         np.testing.assert_allclose(got[1], want[1], rtol=1e-14, atol=0, err_msg=str(trial))
         np.testing.assert_allclose(got[2], want[2], rtol=1e-14, atol=0, err_msg=str(trial))
         assert np.array_equal(got[0], want[0]), trial

@@ -255,6 +255,36 @@ def busy_python(stop):
             x += i * i
 
 
+def _update_like_a_game(voice, seconds: float) -> list[float]:
+    """A game's thread updates ``voice`` every 16 ms for ``seconds`` s, then as long again
+    while a pure-Python thread spins; returns the monotonic times (s) of the updates, from
+    the start on."""
+    stop = threading.Event()
+    updates = [time.monotonic()]
+
+    def game():
+        k = 0
+        while not stop.is_set():
+            time.sleep(0.016)
+            k += 1
+            speed = 0.1 + 0.03 * np.sin(k / 10.0)
+            voice.update(ORIGIN + DIRECTION * voice.path_position, speed * DIRECTION)
+            updates.append(time.monotonic())
+
+    loop = threading.Thread(target=game)
+    loop.start()
+    time.sleep(seconds)
+    stop_busy = threading.Event()
+    busy = threading.Thread(target=busy_python, args=(stop_busy,))
+    busy.start()
+    time.sleep(seconds)
+    stop_busy.set()
+    busy.join()
+    stop.set()
+    loop.join()
+    return updates
+
+
 @pytest.mark.slow  # a JACK server and 4 s of stream
 @pytest.mark.xdist_group("jack")  # with tests/test_live_jack.py: one JACK server at a time
 def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
@@ -288,30 +318,7 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
             before = engine.stats
             voice = body.roll(ball, ORIGIN + DIRECTION * START, 0.1 * DIRECTION,
                               envelope=envelope, start=START)  # fmt: skip
-            stop = threading.Event()
-
-            updates = [time.monotonic()]
-
-            def game():
-                k = 0
-                while not stop.is_set():
-                    time.sleep(0.016)
-                    k += 1
-                    speed = 0.1 + 0.03 * np.sin(k / 10.0)
-                    voice.update(ORIGIN + DIRECTION * voice.path_position, speed * DIRECTION)
-                    updates.append(time.monotonic())
-
-            loop = threading.Thread(target=game)
-            loop.start()
-            time.sleep(seconds)
-            stop_busy = threading.Event()
-            busy = threading.Thread(target=busy_python, args=(stop_busy,))
-            busy.start()
-            time.sleep(seconds)
-            stop_busy.set()
-            busy.join()
-            stop.set()
-            loop.join()
+            updates = _update_like_a_game(voice, seconds)
             voice.stop(fade=0.02)
             updates.append(time.monotonic() + 0.02)  # it rolls on over the fade
             deadline = time.monotonic() + 2.0

@@ -251,23 +251,28 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     note; SI units, None where a value does not exist) and ``first_tick`` (figures of the
     first tick alone).
     """
-    from scipy.signal import butter, sosfiltfilt
-
     from synth.io.presets import load_preset
-    from synth.physics.bounces import BounceSequence, simulate_scene
-    from synth.physics.contact import solve_impact
-    from synth.sound.render import render
-    from validation.edge import edge_study, edge_study_json, thesis_edge_rows
-    from validation.losses import loss_law_study
-    from validation.modal import thesis_modal_rows
-    from validation.series import thesis_lowspeed_rows
-    from validation.shear import thesis_transverse_shear_rows, transverse_shear_sensitivity
-    from validation.surface import surface_fit
+    from synth.physics.bounces import simulate_scene
 
-    rows = []
+    rows = _impact_rows() + _impedance_rows()
+    scene = load_preset("default", ["contact.model=thesis"])  # the thesis' model's sound
+    seq = simulate_scene(scene)
+    rows += _tick_decay_rows(scene, seq, samplerate)
+    out = dict(samplerate=samplerate, rows=rows, first_tick=_first_tick(scene, seq, samplerate))
+    if modal:
+        _add_modal_study(out, samplerate)
+    return out
+
+
+def _impact_rows() -> list[dict]:
+    """The first impact's restitution, and the contact time and critical distance of the nine
+    pairs of Table 3.3, all at 1.4 m/s (a 10 cm drop)."""
+    from synth.physics.contact import solve_impact
+
+    speed = math.sqrt(2.0 * GRAVITY * 0.1)
     ball, plate = thesis_pair("steel 10.0 mm", "18 mm")
-    first = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
-    rows.append(
+    first = solve_impact(ball, plate, speed, rtol=1e-9)
+    rows = [
         thesis_row(
             "restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s)",
             "",
@@ -275,11 +280,11 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
             THESIS_RESTITUTION["model"],
             THESIS_RESTITUTION["measured"],
         )
-    )
+    ]
     impacts = {}
     for (ball_name, board_name), (tau_meas, ratio, _) in THESIS_IMPACTS.items():
         ball, plate = thesis_pair(ball_name, board_name)
-        r = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
+        r = solve_impact(ball, plate, speed, rtol=1e-9)
         impacts[ball_name, board_name] = (plate, r.contact_time)
         rows.append(
             thesis_row(
@@ -302,42 +307,53 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
                 dc_meas,
             )
         )
+    return rows
+
+
+def _impedance_rows() -> list[dict]:
+    """The 18 mm board's impedance at the middle, an edge and a corner (Table 3.4)."""
     _, plate = thesis_pair("steel 10.0 mm", "18 mm")
-    z_inf = impedance.infinite_plate_impedance(plate)
     engine_z = {
-        "middle": z_inf,
+        "middle": impedance.infinite_plate_impedance(plate),
         "edge": edge_impedance(plate),
         "corner": corner_impedance(plate),
     }
-    for where, (model, measured) in THESIS_IMPEDANCE.items():
-        note = (
-            "engine: derived from measurements, Z_inf over the mean measured middle/corner "
-            "ratio 7.5 of the 18 and 12 mm boards (Table 3.4), not a prediction"
-            if where == "corner"
-            else "engine: Eichler's 0.29 Z_inf"
-            if where == "edge"
-            else "engine: the infinite thin plate's Z_inf"
+    notes = {
+        "corner": "engine: derived from measurements, Z_inf over the mean measured middle/corner "
+        "ratio 7.5 of the 18 and 12 mm boards (Table 3.4), not a prediction",
+        "edge": "engine: Eichler's 0.29 Z_inf",
+        "middle": "engine: the infinite thin plate's Z_inf",
+    }
+    return [
+        thesis_row(
+            f"impedance, 18 mm, {where}", "N s/m", engine_z[where], model, measured, notes[where]
         )
-        rows.append(
-            thesis_row(
-                f"impedance, 18 mm, {where}", "N s/m", engine_z[where], model, measured, note
-            )
-        )
+        for where, (model, measured) in THESIS_IMPEDANCE.items()
+    ]
 
-    scene = load_preset("default", ["contact.model=thesis"])  # the thesis' model's sound
-    seq = simulate_scene(scene)
+
+def _tick_decay_rows(scene, seq, samplerate: int) -> list[dict]:
+    """The decay times of ticks 1, 6 and 8 at the microphone, each tick rendered alone."""
     decays = tick_decay_times(scene, seq, sorted(THESIS_TICK_DECAY), samplerate)
-    for n, measured in THESIS_TICK_DECAY.items():
-        rows.append(
-            thesis_row(
-                f"tick {n} decay at 20 cm, envelope peak to 37 %",
-                "s",
-                decays[n],
-                None,
-                measured,
-                "the thesis has no model of the sound",
-            )
+    return [
+        thesis_row(
+            f"tick {n} decay at 20 cm, envelope peak to 37 %",
+            "s",
+            decays[n],
+            None,
+            measured,
+            "the thesis has no model of the sound",
         )
+        for n, measured in THESIS_TICK_DECAY.items()
+    ]
+
+
+def _first_tick(scene, seq, samplerate: int) -> dict:
+    """Figures of the first tick rendered alone, which have no measured counterpart."""
+    from scipy.signal import butter, sosfiltfilt
+
+    from synth.physics.bounces import BounceSequence
+    from synth.sound.render import render
 
     alone = BounceSequence(seq.impacts[:1], "max-impacts", seq.drop_height, seq.gravity)
     r = render(scene, samplerate=samplerate, normalize="none", sequence=alone)
@@ -346,7 +362,7 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     spec = np.abs(np.fft.rfft(x)) ** 2
     f = np.fft.rfftfreq(x.size, 1 / fs)
     band = sosfiltfilt(butter(4, [2000, 3000], btype="band", fs=fs, output="sos"), x)
-    first_tick = dict(
+    return dict(
         restitution=seq[0].result.restitution,
         contact_time=seq[0].result.contact_time,
         decay_time=envelope_decay_time(x, fs, DECAY_SMOOTHING),
@@ -356,18 +372,28 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
         centroid=float(np.sum(f * spec) / np.sum(spec)),
         peak_pa=float(np.max(np.abs(x))),
     )
-    out = dict(samplerate=samplerate, rows=rows, first_tick=first_tick)
-    if modal:
-        rows += thesis_modal_rows(samplerate=samplerate)
-        rows += thesis_lowspeed_rows(samplerate)
-        rows += thesis_transverse_shear_rows()
-        readings = edge_study()
-        rows += thesis_edge_rows(readings)
-        out["edge_resolution"] = edge_study_json(readings)
-        out["loss_laws"] = loss_law_study()
-        out["surface"] = surface_fit()
-        out["transverse_shear"] = transverse_shear_sensitivity()
-    return out
+
+
+def _add_modal_study(out: dict, samplerate: int) -> None:
+    """The finite plate's rows (:func:`thesis_modal_rows` and the studies after it) added to
+    ``out``'s rows, and the studies' own figures to ``out``."""
+    from validation.edge import edge_study, edge_study_json, thesis_edge_rows
+    from validation.losses import loss_law_study
+    from validation.modal import thesis_modal_rows
+    from validation.series import thesis_lowspeed_rows
+    from validation.shear import thesis_transverse_shear_rows, transverse_shear_sensitivity
+    from validation.surface import surface_fit
+
+    rows = out["rows"]
+    rows += thesis_modal_rows(samplerate=samplerate)
+    rows += thesis_lowspeed_rows(samplerate)
+    rows += thesis_transverse_shear_rows()
+    readings = edge_study()
+    rows += thesis_edge_rows(readings)
+    out["edge_resolution"] = edge_study_json(readings)
+    out["loss_laws"] = loss_law_study()
+    out["surface"] = surface_fit()
+    out["transverse_shear"] = transverse_shear_sensitivity()
 
 
 #: Restitution gaps of the thesis' measurements to its model (section 3.2; measured / model - 1):

@@ -268,7 +268,7 @@ def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
 
 
 @compiled(inline="always", sums=True, nogil=True)
-def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
+def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):  # noqa: PLR0913
     """One sample of the module docstring's recursion for the modes ``zr + i zi`` (in place)
     driven at ``wa row_a + wb row_b`` (N): what the listener (``lr + i li``) hears at its start."""
     acc = 0.0
@@ -299,7 +299,7 @@ def _interval_gains(row_a, row_b, gr, gi, ar, ai, br, bi):  # pragma: no cover -
 
 
 @compiled(inline="always")
-def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
+def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # noqa: PLR0913  # pragma: no cover
     """One period of the heard modes ``wr + i wi`` (in place) driven by the parts ``fa``, ``fb``
     (N) of the force on the interval's two rows; returns the signal at its start."""
     acc = 0.0
@@ -312,7 +312,7 @@ def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - com
 
 
 @compiled(inline="always")
-def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
+def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # noqa: PLR0913  # pragma: no cover
     """:func:`_ring_one` for four consecutive sample periods in one interval, each mode's
     state and gains loaded once for all four."""
     a0, a1, a2, a3 = fa[0], fa[1], fa[2], fa[3]
@@ -365,7 +365,7 @@ def _ring_four_free(er, ei, wr, wi):  # pragma: no cover - compiled
 
 
 @compiled(sums=True, nogil=True)
-def _drive(
+def _drive(  # noqa: PLR0913
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
     previous, out,
 ):  # fmt: skip  # pragma: no cover - compiled

@@ -224,95 +224,158 @@ def _write_wav(path: Path, frames: int) -> None:
     sf.write(path, np.zeros((frames, 1)), 48000, subtype="PCM_16")
 
 
-def run_case(case: dict) -> Outcome:
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
-        out = folder / "existing.wav"
-        out.write_bytes(PRECIOUS)
-        preset = folder / "preset.toml"
+@dataclass(frozen=True)
+class CasePaths:
+    """The paths a case runs with, in its own temporary folder: the output that exists
+    before the run, the case's preset and WAV input (where it has them)."""
+
+    folder: Path
+    out: Path
+    preset: Path
+    wav: Path
+
+    @classmethod
+    def prepared(cls, folder: Path, case: dict) -> CasePaths:
+        paths = cls(folder, folder / "existing.wav", folder / "preset.toml", folder / "input.wav")
+        paths.out.write_bytes(PRECIOUS)
         if "preset" in case:
-            preset.write_text(case["preset"])
-        wav = folder / "input.wav"
+            paths.preset.write_text(case["preset"])
         if "wav_frames" in case:
-            _write_wav(wav, case["wav_frames"])
+            _write_wav(paths.wav, case["wav_frames"])
+        return paths
 
-        def substituted(args):
-            return [
-                a.replace("{out}", str(out))
-                .replace("{dir}", str(folder))
-                .replace("{preset}", str(preset))
-                .replace("{wav}", str(wav))
-                for a in args
-            ]
+    def substituted(self, args: list[str]) -> list[str]:
+        """``args`` with ``{out}``, ``{dir}``, ``{preset}`` and ``{wav}`` replaced."""
+        names = {"{out}": self.out, "{dir}": self.folder, "{preset}": self.preset}
+        names["{wav}"] = self.wav
+        for key, value in names.items():
+            args = [a.replace(key, str(value)) for a in args]
+        return args
 
-        argv = substituted(case.get("argv", []))
-        before = {p.name for p in folder.iterdir()}
-        env = case.get("env", {})
-        if "code" in case:
-            (code, stderr, tb), hang = _in_code(case["code"], folder, out), False
-        elif "signal" in case:
-            moment = case.get("after")
-            if "when" in case:
-                moment = functools.partial(_any_match, folder, case["when"])
-            code, stderr, hang = _signalled(argv, env, case["signal"], moment, case["timeout"])
-            tb = "Traceback (most recent call last)" in stderr
-            killed = code != 0
-            if "then" in case and not hang:
-                then = substituted(case["then"])
-                code2, stderr2, hang = _in_subprocess(then, env, case["timeout"])
-                tb = tb or "Traceback (most recent call last)" in stderr2
-                stderr += stderr2 if code2 != 0 else ""
-                code = code2  # the killed run's status is the signal's
-        elif "timeout" in case:
-            code, stderr, hang = _in_subprocess(argv, env, case["timeout"])
-            tb = "Traceback (most recent call last)" in stderr
-        else:
-            (code, stderr, tb), hang = _in_process(argv, env), False
-        o = Outcome(case, code, stderr, traceback=tb, hang=hang)
-        if "signal" in case and not hang and not killed:
-            o.problems.append("ended before the signal: make `after` shorter")
-        new = {p.name for p in folder.rglob("*")} - before
-        o.partial = any(n.startswith(".") for n in new)
-        o.lost = out.read_bytes() != PRECIOUS and case["expect"] in ("error", "killed")
-        checked = case.get("check")
-        if checked and case["expect"] == "ok" and code == 0 and not hang and not tb:
-            try:
-                held = eval(checked, {"out": out, "folder": folder, "audio_ok": audio_ok})  # noqa: S307
-            except Exception:  # noqa: BLE001 - a check that cannot be made does not hold
-                held = False
-            if not held:
-                o.silent_wrong = True
-        if (case["expect"] == "error" and code == 0) or code == SILENT_WRONG:
-            o.silent_wrong = True
+
+@dataclass
+class Run:
+    """How a case's command ended: exit status (None: hung), stderr, whether it printed a
+    traceback, and for a signal case whether the signal came before the command's end."""
+
+    code: int | None
+    stderr: str
+    traceback: bool = False
+    hang: bool = False
+    signalled: bool = True
+
+
+def _has_traceback(stderr: str) -> bool:
+    return "Traceback (most recent call last)" in stderr
+
+
+def _run_signalled(case: dict, paths: CasePaths, env: dict) -> Run:
+    """A signal case: the command sent its signal, then (``then``) the next run to its end."""
+    moment = case.get("after")
+    if "when" in case:
+        moment = functools.partial(_any_match, paths.folder, case["when"])
+    argv = paths.substituted(case.get("argv", []))
+    code, stderr, hang = _signalled(argv, env, case["signal"], moment, case["timeout"])
+    run = Run(code, stderr, _has_traceback(stderr), hang, signalled=code != 0)
+    if "then" in case and not hang:
+        code2, stderr2, run.hang = _in_subprocess(
+            paths.substituted(case["then"]), env, case["timeout"]
+        )
+        run.traceback = run.traceback or _has_traceback(stderr2)
+        run.stderr += stderr2 if code2 != 0 else ""
+        run.code = code2  # the killed run's status is the signal's
+    return run
+
+
+def _run(case: dict, paths: CasePaths) -> Run:
+    """Run the case's code or command in the way it asks for."""
+    env = case.get("env", {})
+    if "code" in case:
+        return Run(*_in_code(case["code"], paths.folder, paths.out))
+    if "signal" in case:
+        return _run_signalled(case, paths, env)
+    argv = paths.substituted(case.get("argv", []))
+    if "timeout" in case:
+        code, stderr, hang = _in_subprocess(argv, env, case["timeout"])
+        return Run(code, stderr, _has_traceback(stderr), hang)
+    return Run(*_in_process(argv, env))
+
+
+def _check_held(case: dict, paths: CasePaths) -> bool:
+    """Whether the case's ``check`` expression holds on its output."""
+    try:
+        names = {"out": paths.out, "folder": paths.folder, "audio_ok": audio_ok}
+        return bool(eval(case["check"], names))  # noqa: S307
+    except Exception:  # noqa: BLE001 - a check that cannot be made does not hold
+        return False
+
+
+def _outcome(case: dict, paths: CasePaths, run: Run, before: set) -> Outcome:
+    """What the run left in the folder and whether its result was silently wrong."""
+    o = Outcome(case, run.code, run.stderr, traceback=run.traceback, hang=run.hang)
+    new = {p.name for p in paths.folder.rglob("*")} - before
+    o.partial = any(n.startswith(".") for n in new)
+    o.lost = paths.out.read_bytes() != PRECIOUS and case["expect"] in ("error", "killed")
+    ran_clean = run.code == 0 and not run.hang and not run.traceback
+    if case.get("check") and case["expect"] == "ok" and ran_clean:
+        o.silent_wrong = not _check_held(case, paths)
+    if (case["expect"] == "error" and run.code == 0) or run.code == SILENT_WRONG:
+        o.silent_wrong = True
+    return o
+
+
+def _error_problems(o: Outcome, case: dict) -> list[str]:
+    """What is wrong with an expected error: its status, its one line, its words."""
     lines = [
         x
         for x in o.stderr.strip().splitlines()
         if not x.startswith("usage:") and not x.startswith("  ") and not COMPILE_NOTE.match(x)
     ]
-    if hang:
-        o.problems.append(f"no end within {case['timeout']} s")
-    elif tb:
-        o.problems.append("traceback")
+    problems = []
+    if o.code not in (1, 2):
+        problems.append(f"exit {o.code}, expected 1 or 2")
+    if len(lines) != 1:
+        problems.append(f"{len(lines)} lines on stderr, expected 1: {o.stderr!r}")
+    missing = [w for w in case.get("words", ()) if w not in o.stderr]
+    if missing:
+        problems.append(f"message lacks {missing}: {o.stderr.strip()!r}")
+    return problems
+
+
+def _problems(o: Outcome, case: dict) -> list[str]:
+    """What differs from the case's expectation, in words."""
+    problems = []
+    if o.hang:
+        problems.append(f"no end within {case['timeout']} s")
+    elif o.traceback:
+        problems.append("traceback")
     elif case["expect"] == "ok":
-        if code != 0:
-            o.problems.append(f"exit {code}, expected 0: {o.stderr.strip()[-300:]}")
+        if o.code != 0:
+            problems.append(f"exit {o.code}, expected 0: {o.stderr.strip()[-300:]}")
         if o.silent_wrong:
-            o.problems.append(f"the result does not hold: {case.get('check', o.stderr)}")
+            problems.append(f"the result does not hold: {case.get('check', o.stderr)}")
     elif case["expect"] == "killed":
-        if "then" in case and code != 0:
-            o.problems.append(f"the next run failed (exit {code}): {o.stderr.strip()[-300:]}")
+        if "then" in case and o.code != 0:
+            problems.append(f"the next run failed (exit {o.code}): {o.stderr.strip()[-300:]}")
     else:
-        if code not in (1, 2):
-            o.problems.append(f"exit {code}, expected 1 or 2")
-        if len(lines) != 1:
-            o.problems.append(f"{len(lines)} lines on stderr, expected 1: {o.stderr!r}")
-        missing = [w for w in case.get("words", ()) if w not in o.stderr]
-        if missing:
-            o.problems.append(f"message lacks {missing}: {o.stderr.strip()!r}")
+        problems += _error_problems(o, case)
     if o.partial:
-        o.problems.append("temporary file left")
+        problems.append("temporary file left")
     if o.lost:
-        o.problems.append("existing output replaced although the command failed")
+        problems.append("existing output replaced although the command failed")
+    return problems
+
+
+def run_case(case: dict) -> Outcome:
+    """Run one corpus case in a fresh folder and say what went wrong with it."""
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = CasePaths.prepared(Path(tmp), case)
+        before = {p.name for p in paths.folder.iterdir()}
+        run = _run(case, paths)
+        o = _outcome(case, paths, run, before)
+    if "signal" in case and not run.hang and not run.signalled:
+        o.problems.append("ended before the signal: make `after` shorter")
+    o.problems += _problems(o, case)
     return o
 
 
