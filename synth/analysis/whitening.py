@@ -188,7 +188,9 @@ def _border_cholesky(
     return _factor(border.row1[1:], matrix, seg, load, space)
 
 
-def _factor(first_row: np.ndarray, matrix, seg: np.ndarray, load: float, space) -> np.ndarray | None:
+def _factor(
+    first_row: np.ndarray, matrix, seg: np.ndarray, load: float, space
+) -> np.ndarray | None:
     """Cholesky factor of the normal matrix (first row ``first_row``; ``matrix()`` gives it
     whole) plus ``load``: Schur's, else LAPACK's, the load raised 100 times where both fail."""
     from scipy.linalg import LinAlgError, cholesky
