@@ -4,8 +4,11 @@
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import functools
+import hashlib
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +25,14 @@ PREDICTION_FLOOR = 1e-12
 ORDER_GRID = 96
 #: Predictors whose errors are formed at once (memory: as many transforms).
 ERROR_BATCH = 16
+#: Resonator predictors kept within :func:`predictors_reused`, the least recently asked for
+#: dropped first (at most 32 KB each).
+REUSED_PREDICTORS = 128
+
+#: The predictors of :func:`predictors_reused`'s context by their stretch, or None outside one.
+_REUSED: contextvars.ContextVar[OrderedDict | None] = contextvars.ContextVar(
+    "reused_predictors", default=None
+)
 
 
 def whitening_predictor(
@@ -101,12 +112,45 @@ class _OrderCriterion:
     y: np.ndarray
 
 
+@contextlib.contextmanager
+def predictors_reused():
+    """A context in which :func:`resonator_predictor` gives the predictor of a stretch it has
+    solved for already again (a copy): a recording's searches fit the same stretches more than
+    once (a drop searched on its own repeats the whole recording's search of its first
+    bounce). A stretch is known by its samples' digest (BLAKE2b, 128 bits), ``fs`` and
+    ``start``; the outermost context holds the predictors, at most :data:`REUSED_PREDICTORS`."""
+    token = _REUSED.set(_REUSED.get() if _REUSED.get() is not None else OrderedDict())
+    try:
+        yield
+    finally:
+        _REUSED.reset(token)
+
+
 def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
     """Covariance-method predictor of the free ringing ``seg`` (rate ``fs``, Hz) of the stable order
     of least description length (Rissanen 1983, Ann. Stat. 11, 416), solved with the least error
-    as ridge; None when too short or unstable. The normal equations enter by their border only
-    (:func:`~synth.dsp.covariance_border`, all the Schur algorithm takes); every factor is laid
-    in one buffer, whose pages are touched once."""
+    as ridge (:func:`_solved_predictor`); None when too short or unstable. Within
+    :func:`predictors_reused`, a stretch solved for already is not solved again."""
+    memo = _REUSED.get()
+    if memo is None:
+        return _solved_predictor(seg, fs, start)
+    samples = np.ascontiguousarray(seg, dtype=float)
+    key = (samples.size, float(fs), int(start), hashlib.blake2b(samples, digest_size=16).digest())
+    if key in memo:
+        memo.move_to_end(key)
+    else:
+        memo[key] = _solved_predictor(samples, fs, start)
+        if len(memo) > REUSED_PREDICTORS:
+            memo.popitem(last=False)
+    a = memo[key]
+    return None if a is None else a.copy()
+
+
+def _solved_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
+    """:func:`resonator_predictor` solved for: the order doubled from ``start`` while the least
+    description length lies in the top quarter of the orders tried. The normal equations enter
+    by their border only (:func:`~synth.dsp.covariance_border`, all the Schur algorithm takes);
+    every factor is laid in one buffer, whose pages are touched once."""
     cap = min(MAX_ORDER, (seg.size - 1) // 3)
     if cap < 2 or not np.any(seg):
         return None
