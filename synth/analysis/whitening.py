@@ -309,6 +309,9 @@ def _schur_kernel(row, a, b, load, U):  # pragma: no cover - compiled
         sign = 1.0 if (u - rho * v) / c > 0.0 else -1.0
         for i in range(k):
             U[k, i] = 0.0
+        if turn1 and turn2:
+            _schur_step(h1, g2, g3, g4, U[k], k, (c1, s1, c2, s2, rho, c, sign))
+            continue
         for i in range(k, p):
             x1 = h1[i - k]
             if turn1:
@@ -323,6 +326,28 @@ def _schur_kernel(row, a, b, load, U):  # pragma: no cover - compiled
             h1[i - k] = x
             U[k, i] = sign * x
     return True
+
+
+@compiled()
+def _schur_step(h1, g2, g3, g4, row, k, turns):  # pragma: no cover - compiled
+    """Step ``k`` of :func:`_schur_kernel` where both Givens rotations turn (``turns``: their
+    cosines and sines, the hyperbolic rotation's ``rho`` and ``c``, the row's sign) into
+    ``row``: one loop without branches."""
+    c1, s1, c2, s2, rho, c, sign = turns
+    p = g2.size
+    for i in range(k, p):
+        x1 = h1[i - k]
+        y1 = g3[i]
+        x2 = g2[i]
+        y2 = g4[i]
+        u = c1 * x1 + s1 * y1
+        g3[i] = c1 * y1 - s1 * x1
+        v = c2 * x2 + s2 * y2
+        g4[i] = c2 * y2 - s2 * x2
+        x = (u - rho * v) / c
+        g2[i] = c * v - rho * x
+        h1[i - k] = x
+        row[i] = sign * x
 
 
 @compiled()
