@@ -9,6 +9,8 @@ function that converts one takes ``samplerate`` (Hz).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from synth.compilation import compiled
@@ -92,6 +94,36 @@ def covariance_matrix(x: np.ndarray, order: int, blocks=None) -> np.ndarray:
     last = np.array([x[n2 - 1 :: -1][:p] for _, n2 in blocks])
     _shift_recursion(C, first, last)
     return C
+
+
+@dataclass(frozen=True)
+class CovarianceBorder:
+    """Of :func:`covariance_matrix` over one block: row 0, row 1 and the diagonal (the same
+    values, the same sums in the same order)."""
+
+    row0: np.ndarray
+    row1: np.ndarray
+    diagonal: np.ndarray
+
+
+def covariance_border(x: np.ndarray, order: int) -> CovarianceBorder:
+    """Rows 0 and 1 and the diagonal of ``covariance_matrix(x, order)`` in O(N log N + p): all
+    that the generalized Schur algorithm takes of the normal equations (their first row and
+    the samples entering and leaving the sums), without the ``(p + 1)^2`` matrix."""
+    p = int(order)
+    x = np.ascontiguousarray(x, dtype=float)
+    row0 = 0 + _covariance_row(x, p)  # as covariance_matrix's sum over its one block
+    f = x[p - 1 :: -1][:p]
+    g = x[x.size - 1 :: -1][:p]
+    row1 = np.empty(p + 1)
+    row1[0] = row0[1]
+    row1[1:] = (row0[:p] + f[0] * f) - g[0] * g
+    d = float(row0[0])
+    diagonal = [d]
+    for fi, gi in zip(f.tolist(), g.tolist()):  # in order, as the recursion along it
+        d = (d + fi * fi) - gi * gi
+        diagonal.append(d)
+    return CovarianceBorder(row0, row1, np.array(diagonal))
 
 
 def _covariance_row(seg: np.ndarray, p: int) -> np.ndarray:

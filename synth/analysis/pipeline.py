@@ -54,7 +54,7 @@ from synth.analysis.validity import (
     new_series_at,
     without_spurious_end,
 )
-from synth.analysis.whitening import one_blas_thread
+from synth.analysis.whitening import one_blas_thread, predictors_reused
 from synth.errors import ParameterError
 from synth.store.audio import wav_shortfall
 
@@ -89,10 +89,12 @@ def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
 
 
 def _analyze_source(source: Source, settings: Settings) -> Analysis:
-    """``source`` analysed whole up to :data:`~synth.analysis.blocks.WHOLE`."""
-    if source.frames <= whole_frames(settings.samplerate):
-        return _analyze_whole(source.read(0, source.frames), settings)
-    return _analyze_blocks(source, settings)
+    """``source`` analysed whole up to :data:`~synth.analysis.blocks.WHOLE`; a stretch's resonator
+    predictor solved once (:func:`~synth.analysis.whitening.predictors_reused`)."""
+    with predictors_reused():
+        if source.frames <= whole_frames(settings.samplerate):
+            return _analyze_whole(source.read(0, source.frames), settings)
+        return _analyze_blocks(source, settings)
 
 
 def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:

@@ -4,8 +4,11 @@
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import functools
+import hashlib
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +25,14 @@ PREDICTION_FLOOR = 1e-12
 ORDER_GRID = 96
 #: Predictors whose errors are formed at once (memory: as many transforms).
 ERROR_BATCH = 16
+#: Resonator predictors kept within :func:`predictors_reused`, the least recently asked for
+#: dropped first (at most 32 KB each).
+REUSED_PREDICTORS = 128
+
+#: The predictors of :func:`predictors_reused`'s context by their stretch, or None outside one.
+_REUSED: contextvars.ContextVar[OrderedDict | None] = contextvars.ContextVar(
+    "reused_predictors", default=None
+)
 
 
 def whitening_predictor(
@@ -101,31 +112,67 @@ class _OrderCriterion:
     y: np.ndarray
 
 
+@contextlib.contextmanager
+def predictors_reused():
+    """A context in which :func:`resonator_predictor` gives the predictor of a stretch it has
+    solved for already again (a copy): a recording's searches fit the same stretches more than
+    once (a drop searched on its own repeats the whole recording's search of its first
+    bounce). A stretch is known by its samples' digest (BLAKE2b, 128 bits), ``fs`` and
+    ``start``; the outermost context holds the predictors, at most :data:`REUSED_PREDICTORS`."""
+    token = _REUSED.set(_REUSED.get() if _REUSED.get() is not None else OrderedDict())
+    try:
+        yield
+    finally:
+        _REUSED.reset(token)
+
+
 def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
     """Covariance-method predictor of the free ringing ``seg`` (rate ``fs``, Hz) of the stable order
     of least description length (Rissanen 1983, Ann. Stat. 11, 416), solved with the least error
-    as ridge; None when too short or unstable."""
+    as ridge (:func:`_solved_predictor`); None when too short or unstable. Within
+    :func:`predictors_reused`, a stretch solved for already is not solved again."""
+    memo = _REUSED.get()
+    if memo is None:
+        return _solved_predictor(seg, fs, start)
+    samples = np.ascontiguousarray(seg, dtype=float)
+    key = (samples.size, float(fs), int(start), hashlib.blake2b(samples, digest_size=16).digest())
+    if key in memo:
+        memo.move_to_end(key)
+    else:
+        memo[key] = _solved_predictor(samples, fs, start)
+        if len(memo) > REUSED_PREDICTORS:
+            memo.popitem(last=False)
+    a = memo[key]
+    return None if a is None else a.copy()
+
+
+def _solved_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
+    """:func:`resonator_predictor` solved for: the order doubled from ``start`` while the least
+    description length lies in the top quarter of the orders tried. The normal equations enter
+    by their border only (:func:`~synth.dsp.covariance_border`, all the Schur algorithm takes);
+    every factor is laid in one buffer, whose pages are touched once."""
     cap = min(MAX_ORDER, (seg.size - 1) // 3)
     if cap < 2 or not np.any(seg):
         return None
     p_max = min(cap, max(start, 2))
+    space = np.empty(cap * cap)
     while True:
-        C = dsp.covariance_matrix(seg, p_max)
-        G = C[1:, 1:]
-        Lc = _loaded_cholesky(G, seg, 1e-12 * np.trace(G) / p_max)
+        C = dsp.covariance_border(seg, p_max)
+        ridge = 1e-12 * C.diagonal[1:].sum() / p_max
+        Lc = _border_cholesky(seg, C, ridge, space)
         if Lc is None:
             return None
         with one_blas_thread():
-            crit = _order_criterion(seg, Lc, C)
+            crit = _order_criterion(seg, Lc, C.row0)
         best = int(crit.grid[int(np.argmin(crit.length))])
         if best <= 0.75 * p_max or p_max >= cap:
             break
         p_max = min(cap, 2 * p_max)
-    Lc = _loaded_cholesky(G, seg, max(float(crit.energy.min()), 1e-12 * np.trace(G) / p_max))
+    Lc = _border_cholesky(seg, C, max(float(crit.energy.min()), ridge), space)
     if Lc is None:
         return None
     with one_blas_thread():
-        crit = _order_criterion(seg, Lc, C)
+        crit = _order_criterion(seg, Lc, C.row0)
         for i in np.argsort(crit.length, kind="stable"):
             a = _predictor(Lc, crit.y, int(crit.grid[i]))
             if dsp.is_minimum_phase(a):
@@ -161,16 +208,43 @@ def _blas_controller():
     return ThreadpoolController()
 
 
-def _loaded_cholesky(G: np.ndarray, seg: np.ndarray, load: float) -> np.ndarray | None:
-    """Cholesky factor of ``G`` plus ``load`` (Schur or LAPACK), or None."""
+def _loaded_cholesky(
+    G: np.ndarray, seg: np.ndarray, load: float, space: np.ndarray | None = None
+) -> np.ndarray | None:
+    """Cholesky factor of ``G`` plus ``load`` (Schur or LAPACK), or None; ``space``: a buffer
+    of at least ``G.size`` for the Schur factor."""
+    return _factor(G[0], lambda: G, seg, load, space)
+
+
+def _border_cholesky(
+    seg: np.ndarray, border: dsp.CovarianceBorder, load: float, space: np.ndarray
+) -> np.ndarray | None:
+    """:func:`_loaded_cholesky` of the normal matrix of ``seg`` whose border is ``border``; the
+    whole matrix is formed only where LAPACK must factor it."""
+    p = border.row0.size - 1
+    whole: list[np.ndarray] = []
+
+    def matrix() -> np.ndarray:
+        if not whole:
+            whole.append(dsp.covariance_matrix(seg, p)[1:, 1:])
+        return whole[0]
+
+    return _factor(border.row1[1:], matrix, seg, load, space)
+
+
+def _factor(
+    first_row: np.ndarray, matrix, seg: np.ndarray, load: float, space
+) -> np.ndarray | None:
+    """Cholesky factor of the normal matrix (first row ``first_row``; ``matrix()`` gives it
+    whole) plus ``load``: Schur's, else LAPACK's, the load raised 100 times where both fail."""
     from scipy.linalg import LinAlgError, cholesky
 
-    n = G.shape[0]
+    n = first_row.size
     for _ in range(4):
-        L = _schur_cholesky(G[0], _displacement_columns(seg, n), load)
+        L = _schur_cholesky(first_row, _displacement_columns(seg, n), load, space)
         if L is not None:
             return L
-        loaded = G.copy()  # the load on the diagonal in place: no n-by-n identity and sum
+        loaded = matrix().copy()  # the load on the diagonal in place: no n-by-n identity and sum
         loaded.flat[:: n + 1] += load
         try:
             return cholesky(loaded, lower=True, check_finite=False, overwrite_a=True)
@@ -188,10 +262,14 @@ def _displacement_columns(seg: np.ndarray, p: int) -> tuple[np.ndarray, np.ndarr
     return a, b
 
 
-def _schur_cholesky(first_row: np.ndarray, columns, load: float) -> np.ndarray | None:
-    """Cholesky factor of ``G + load I`` by :func:`_schur_kernel`, or None."""
+def _schur_cholesky(
+    first_row: np.ndarray, columns, load: float, space: np.ndarray | None = None
+) -> np.ndarray | None:
+    """Cholesky factor of ``G + load I`` by :func:`_schur_kernel` (in ``space`` where given), or
+    None."""
     a, b = columns
-    U = np.zeros((first_row.size, first_row.size))
+    p = first_row.size
+    U = (np.empty(p * p) if space is None else space[: p * p]).reshape(p, p)
     ok = _schur_kernel(np.ascontiguousarray(first_row, dtype=float), a, b, float(load), U)
     return U.T if ok else None
 
@@ -199,57 +277,87 @@ def _schur_cholesky(first_row: np.ndarray, columns, load: float) -> np.ndarray |
 @compiled()
 def _schur_kernel(row, a, b, load, U):  # pragma: no cover - compiled
     """Generalized Schur algorithm (Kailath and Sayed 1995, SIAM Rev. 37, 297; Bojanczyk et al.
-    1995, SIAM J. Matrix Anal. Appl. 16, 40) into ``U``; False on breakdown."""
+    1995, SIAM J. Matrix Anal. Appl. 16, 40) into ``U``; False on breakdown. Each step's two
+    Givens rotations and hyperbolic rotation run in one pass over the generators, and the first
+    generator's shift down is an offset into it (``g1[i]`` of step ``k`` is ``h1[i - k]``)."""
     p = row.size
     d = row[0] + load
     if not d > 0.0:
         return False
-    g1 = np.empty(p)
+    h1 = np.empty(p)
     g2 = np.empty(p)
     g3 = np.zeros(p)
     g4 = np.zeros(p)
     s = math.sqrt(d)
     for i in range(p):
-        g1[i] = row[i] / s
+        h1[i] = row[i] / s
         g2[i] = row[i] / s
-    g1[0] = d / s
+    h1[0] = d / s
     g2[0] = 0.0
     for i in range(p - 1):
         g3[i + 1] = a[i]
         g4[i + 1] = b[i]
     for k in range(p):
-        _givens(g1, g3, k)
-        _givens(g2, g4, k)
-        u, v = g1[k], g2[k]
+        turn1, c1, s1 = _givens_angle(h1[0], g3[k])
+        turn2, c2, s2 = _givens_angle(g2[k], g4[k])
+        u = c1 * h1[0] + s1 * g3[k] if turn1 else h1[0]
+        v = c2 * g2[k] + s2 * g4[k] if turn2 else g2[k]
         if not abs(v) < abs(u):
             return False
         rho = v / u
         c = math.sqrt((1.0 - rho) * (1.0 + rho))
+        sign = 1.0 if (u - rho * v) / c > 0.0 else -1.0
+        for i in range(k):
+            U[k, i] = 0.0
+        if turn1 and turn2:
+            _schur_step(h1, g2, g3, g4, U[k], k, (c1, s1, c2, s2, rho, c, sign))
+            continue
         for i in range(k, p):
-            x = (g1[i] - rho * g2[i]) / c
-            g2[i] = c * g2[i] - rho * x
-            g1[i] = x
-        sign = 1.0 if g1[k] > 0.0 else -1.0
-        for i in range(k, p):
-            U[k, i] = sign * g1[i]
-        for i in range(p - 1, k, -1):
-            g1[i] = g1[i - 1]
-        g1[k] = 0.0
+            x1 = h1[i - k]
+            if turn1:
+                y = g3[i]
+                x1, g3[i] = c1 * x1 + s1 * y, c1 * y - s1 * x1
+            x2 = g2[i]
+            if turn2:
+                y = g4[i]
+                x2, g4[i] = c2 * x2 + s2 * y, c2 * y - s2 * x2
+            x = (x1 - rho * x2) / c
+            g2[i] = c * x2 - rho * x
+            h1[i - k] = x
+            U[k, i] = sign * x
     return True
 
 
 @compiled()
-def _givens(x, y, k):  # pragma: no cover - compiled
-    """Rotate ``x[k:]`` and ``y[k:]`` together so that ``y[k]`` becomes zero."""
-    h = math.hypot(x[k], y[k])
-    if h == 0.0 or y[k] == 0.0:
-        return
-    c = x[k] / h
-    s = y[k] / h
-    for i in range(k, x.size):
-        xi = x[i]
-        x[i] = c * xi + s * y[i]
-        y[i] = c * y[i] - s * xi
+def _schur_step(h1, g2, g3, g4, row, k, turns):  # pragma: no cover - compiled
+    """Step ``k`` of :func:`_schur_kernel` where both Givens rotations turn (``turns``: their
+    cosines and sines, the hyperbolic rotation's ``rho`` and ``c``, the row's sign) into
+    ``row``: one loop without branches."""
+    c1, s1, c2, s2, rho, c, sign = turns
+    p = g2.size
+    for i in range(k, p):
+        x1 = h1[i - k]
+        y1 = g3[i]
+        x2 = g2[i]
+        y2 = g4[i]
+        u = c1 * x1 + s1 * y1
+        g3[i] = c1 * y1 - s1 * x1
+        v = c2 * x2 + s2 * y2
+        g4[i] = c2 * y2 - s2 * x2
+        x = (u - rho * v) / c
+        g2[i] = c * v - rho * x
+        h1[i - k] = x
+        row[i] = sign * x
+
+
+@compiled()
+def _givens_angle(x, y):  # pragma: no cover - compiled
+    """Whether to rotate ``(x, y)`` so that ``y`` becomes zero, and the rotation's cosine and
+    sine (no turn where either is zero)."""
+    h = math.hypot(x, y)
+    if h == 0.0 or y == 0.0:
+        return False, 1.0, 0.0
+    return True, x / h, y / h
 
 
 def _predictor(Lc: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
@@ -268,27 +376,75 @@ def _predictors(Lc: np.ndarray, y: np.ndarray, orders: np.ndarray) -> list[np.nd
 
 @compiled()
 def _back_substitutions(U, y, orders, out):  # pragma: no cover - compiled
-    """Row ``i`` of ``out``: ``[1, -h]`` with ``U[:m, :m] h = y[:m]``, ``m = orders[i]``."""
-    for g in range(orders.size):
-        m = orders[g]
+    """Row ``g`` of ``out``: ``[1, -h]`` with ``U[:m, :m] h = y[:m]``, ``m = orders[g]``. The
+    orders, ranked by decreasing ``m``, in fours side by side, row by row from the last: four
+    sums in flight rather than one (each waits on its last addition), each over the same terms
+    in the same order as alone."""
+    n = orders.size
+    rank = np.argsort(-orders, kind="mergesort")
+    m = orders[rank]
+    h = np.zeros((n, m[0] + 1))  # h[r, j]: out[rank[r], j + 1]
+    for i in range(m[0] - 1, -1, -1):
+        d = U[i, i]
+        r = 0
+        while r < n and m[r] > i:
+            if r + 3 < n and m[r + 3] > i:
+                _four_rows(U, y, m, h, i, r, d)
+                r += 4
+            else:
+                acc = y[i]
+                for j in range(i + 1, m[r]):
+                    acc += U[i, j] * h[r, j]
+                h[r, i] = -acc / d
+                r += 1
+    for r in range(n):
+        g = rank[r]
         out[g, 0] = 1.0
-        for i in range(m - 1, -1, -1):
-            acc = y[i]
-            for j in range(i + 1, m):
-                acc += U[i, j] * out[g, j + 1]
-            out[g, i + 1] = -acc / U[i, i]
+        for j in range(m[r]):
+            out[g, j + 1] = h[r, j]
 
 
-def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCriterion:
-    """Description lengths of the predictors on a geometric grid of orders."""
+@compiled()
+def _four_rows(U, y, m, h, i, r, d):  # pragma: no cover - compiled
+    """Row ``i`` of the orders ``r .. r + 3`` (``m`` decreasing) of :func:`_back_substitutions`."""
+    a0 = y[i]
+    a1 = y[i]
+    a2 = y[i]
+    a3 = y[i]
+    for j in range(i + 1, m[r + 3]):
+        u = U[i, j]
+        a0 += u * h[r, j]
+        a1 += u * h[r + 1, j]
+        a2 += u * h[r + 2, j]
+        a3 += u * h[r + 3, j]
+    for j in range(max(i + 1, m[r + 3]), m[r + 2]):
+        u = U[i, j]
+        a0 += u * h[r, j]
+        a1 += u * h[r + 1, j]
+        a2 += u * h[r + 2, j]
+    for j in range(max(i + 1, m[r + 2]), m[r + 1]):
+        u = U[i, j]
+        a0 += u * h[r, j]
+        a1 += u * h[r + 1, j]
+    for j in range(max(i + 1, m[r + 1]), m[r]):
+        a0 += U[i, j] * h[r, j]
+    h[r, i] = -a0 / d
+    h[r + 1, i] = -a1 / d
+    h[r + 2, i] = -a2 / d
+    h[r + 3, i] = -a3 / d
+
+
+def _order_criterion(seg: np.ndarray, Lc: np.ndarray, row0: np.ndarray) -> _OrderCriterion:
+    """Description lengths of the predictors on a geometric grid of orders; ``row0``: row 0 of
+    the normal equations."""
     from scipy.linalg import solve_triangular
 
     p = Lc.shape[0]
-    y = solve_triangular(Lc, C[1:, 0], lower=True, check_finite=False)
+    y = solve_triangular(Lc, row0[1:], lower=True, check_finite=False)
     n = seg.size - p
     grid = np.unique(np.round(np.geomspace(1, p, ORDER_GRID)).astype(int))
     predictors = _predictors(Lc, y, grid)
-    energy = np.maximum(_error_energies(seg, predictors, p), PREDICTION_FLOOR * C[0, 0])
+    energy = np.maximum(_error_energies(seg, predictors, p), PREDICTION_FLOOR * row0[0])
     return _OrderCriterion(grid, energy, n * np.log(energy / n) + grid * math.log(n), y)
 
 
