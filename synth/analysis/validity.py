@@ -103,20 +103,17 @@ def rise_ratios_db(
         return 10.0 * np.log10(pa[keep] / pb[keep])
 
 
-#: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
-#: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
-HANN_LINE_BINS = 4
-#: Least lines of sound for :func:`not_impacts` to drop a silent tick.
-SILENT_MIN_LINES = 3
-
-
 @dataclass(frozen=True)
 class RiseVerdict:
-    """Whether the spectrum rises, whether that is decisive, over how many frequencies."""
+    """Whether the spectrum rises, whether that is decisive, over how many frequencies; whether
+    the stretch was measured (long enough), and whether the rise measured is one stationary
+    ringing shows at most :data:`RISE_FALSE_ALARM` of the time (``significant``)."""
 
     adds: bool
     decisive: bool
     frequencies: int = 0
+    measured: bool = False
+    significant: bool = False
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
@@ -136,13 +133,12 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
         seg = seg[seg.size - 2 * n :]
     ratios = rise_ratios_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
     if not ratios.size:
-        return undecided
+        return RiseVerdict(True, False, measured=True)
     decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
     rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
+    significant = rises and rise_chance(ratios) <= RISE_FALSE_ALARM
     return RiseVerdict(
-        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive),
-        decisive,
-        int(ratios.size),
+        significant or (rises and not decisive), decisive, int(ratios.size), True, significant
     )
 
 
@@ -183,7 +179,7 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
     """Whether ``e_2 < 1`` over no missed bounce, and ``e_3`` within
     :data:`~synth.analysis.series.RESTITUTION_STEP` of it, confirm the second tick."""
     following = ticks[2:4]
-    if not following or missed & {2, 3}:
+    if len(following) < 2 or missed & {2, 3}:
         return False
     if not all(_restitution_below_one(t) for t in following):
         return False
@@ -192,18 +188,36 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
     )
 
 
+def _louder_second(ticks: list[Tick]) -> bool:
+    """Whether the second tick is over :data:`~synth.analysis.series.MAX_EXCESS_DB` louder than
+    the first: no bounce of it."""
+    return len(ticks) > 1 and ticks[1].energy > ticks[0].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
+
+
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks no impact made: no spectral rise where decided, or no rise and
-    no decay over :data:`SILENT_MIN_LINES` lines."""
-    out = []
+    """Indices of the doubtful ticks no impact made: no spectral rise where decided. Where nothing
+    else tells an impact, a rise measured must be one stationary ringing shows at most
+    :data:`RISE_FALSE_ALARM` of the time (none where no frequency holds sound over the noise):
+    for a tick whose own sound does not ring down, and for an unconfirmed second tick (no bounce
+    after it confirms it: only the spectrum can). A tick that cannot be told from the ringing
+    is dropped, not reported; and so is a second tick louder than the first by over
+    :data:`~synth.analysis.series.MAX_EXCESS_DB` (a restitution below 1: the second impact is
+    no faster than the first, which starts the drop; a soft ball's release at the end of a long
+    contact is such a burst)."""
+    missed = missed_bounces(ticks)
+    out = [1] if _louder_second(ticks) else []
     for i in doubtful_ticks(ticks):
+        if i in out:
+            continue
         gaps = [ticks[i].time - ticks[i - 1].time]
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
         silent = ticks[i].decay_time is None
-        lines = verdict.frequencies >= SILENT_MIN_LINES * HANN_LINE_BINS
-        if not verdict.adds and (verdict.decisive or (silent and lines)):
+        unconfirmed = i == 1 and not _confirmed_second(ticks, missed)
+        if (not verdict.adds and verdict.decisive) or (
+            (silent or unconfirmed) and verdict.measured and not verdict.significant
+        ):
             out.append(i)
     return out
 
