@@ -162,7 +162,7 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
 
 def doubtful_ticks(ticks: list[Tick]) -> list[int]:
     """Indices of the ticks after the first whose bounce times show no ball's bounce: grown, after a
-    grown one, over a missed one, or an unconfirmed second tick."""
+    grown one, over a missed one, an unconfirmed second tick, or a departing last one."""
     missed = missed_bounces(ticks)
     out = []
     for i in range(1, len(ticks)):
@@ -170,9 +170,21 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
             e is not None and not e < 1.0 for e in (ticks[i - 1].restitution, ticks[i].restitution)
         ]
         unconfirmed = i == 1 and not _confirmed_second(ticks, missed)
-        if unconfirmed or any(grown) or i in missed:
+        if unconfirmed or any(grown) or i in missed or _departing_last(ticks, i):
             out.append(i)
     return out
+
+
+def _departing_last(ticks: list[Tick], i: int) -> bool:
+    """Whether tick ``i`` is the last and its restitution departs from the one before by over
+    :data:`~synth.analysis.series.RESTITUTION_STEP`: a missed bounce or no bounce, and no tick
+    after it tells which (:func:`missed_bounces` needs both neighbours)."""
+    if i + 1 < len(ticks) or not valid_restitution(ticks[i]):
+        return False
+    before = ticks[i - 1]
+    return valid_restitution(before) and (
+        abs(ticks[i].restitution / before.restitution - 1.0) > RESTITUTION_STEP
+    )
 
 
 def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
@@ -198,8 +210,8 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
     """Indices of the doubtful ticks no impact made: no spectral rise where decided. Where nothing
     else tells an impact, a rise measured must be one stationary ringing shows at most
     :data:`RISE_FALSE_ALARM` of the time (none where no frequency holds sound over the noise):
-    for a tick whose own sound does not ring down, and for an unconfirmed second tick (no bounce
-    after it confirms it: only the spectrum can). A tick that cannot be told from the ringing
+    for a tick whose own sound does not ring down, and for an unconfirmed second tick (no
+    bounce after it confirms it: only the spectrum can). A tick that cannot be told from the ringing
     is dropped, not reported; and so is a second tick louder than the first by over
     :data:`~synth.analysis.series.MAX_EXCESS_DB` (a restitution below 1: the second impact is
     no faster than the first, which starts the drop; a soft ball's release at the end of a long
