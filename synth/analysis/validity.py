@@ -176,10 +176,11 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
 
 
 def _departing_last(ticks: list[Tick], i: int) -> bool:
-    """Whether tick ``i`` is the last and its restitution departs from the one before by over
-    :data:`~synth.analysis.series.RESTITUTION_STEP`: a missed bounce or no bounce, and no tick
-    after it tells which (:func:`missed_bounces` needs both neighbours)."""
-    if i + 1 < len(ticks) or not valid_restitution(ticks[i]):
+    """Whether tick ``i`` is the last, its own sound does not ring down, and its restitution
+    departs from the one before by over :data:`~synth.analysis.series.RESTITUTION_STEP`: a
+    missed bounce or no bounce, and neither a tick after it (:func:`missed_bounces` needs both
+    neighbours) nor its sound tells which."""
+    if i + 1 < len(ticks) or ticks[i].decay_time is not None or not valid_restitution(ticks[i]):
         return False
     before = ticks[i - 1]
     return valid_restitution(before) and (
