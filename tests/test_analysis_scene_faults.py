@@ -138,10 +138,10 @@ def _ringing(fs: float, seconds: float, seed: int) -> np.ndarray:
 
 
 def test_a_doubtful_tick_told_by_nothing_is_dropped():
-    # stationary ringing holds no impact: a doubtful tick in it that does not ring down is
-    # dropped unless its spectrum rises beyond RISE_FALSE_ALARM, whatever the frequencies
-    # that hold sound (a ringing plate's bursts over a few lines were kept); so is an
-    # unconfirmed second tick (one bounce after it confirms nothing) that rings down
+    # stationary ringing holds no impact: a second tick in it that nothing confirms (no two
+    # agreeing bounces after it) is dropped unless its spectrum rises beyond RISE_FALSE_ALARM,
+    # whatever the frequencies that hold sound (a ringing plate's bursts over a few lines were
+    # kept, 0.97 s after the impact), and whether or not its own sound rings down
     fs = 48000
     x = _ringing(fs, 1.5, 5002)
     test = RiseTest(lambda a, b: x[a:b], fs, 60.0, 0.0)

@@ -103,6 +103,13 @@ def rise_ratios_db(
         return 10.0 * np.log10(pa[keep] / pb[keep])
 
 
+#: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
+#: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
+HANN_LINE_BINS = 4
+#: Least lines of sound for :func:`not_impacts` to drop a silent tick within a series.
+SILENT_MIN_LINES = 3
+
+
 @dataclass(frozen=True)
 class RiseVerdict:
     """Whether the spectrum rises, whether that is decisive, over how many frequencies; whether
@@ -207,16 +214,29 @@ def _louder_second(ticks: list[Tick]) -> bool:
     return len(ticks) > 1 and ticks[1].energy > ticks[0].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
 
 
+def _told_by_spectrum(ticks: list[Tick], i: int, missed: set[int]) -> bool:
+    """Whether only the spectrum can tell tick ``i`` an impact: a departing last tick
+    (:func:`_departing_last`), or a second tick the restitutions after it do not confirm
+    (:func:`_confirmed_second`) where fewer than two ticks follow it or its own sound does not
+    ring down either (a second tick that rings down, with a series after it, is judged as any
+    doubtful tick: a plate's uneven bounces leave a real one unconfirmed)."""
+    if _departing_last(ticks, i):
+        return True
+    if i != 1 or _confirmed_second(ticks, missed):
+        return False
+    return len(ticks) < 4 or ticks[1].decay_time is None
+
+
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks no impact made: no spectral rise where decided. Where nothing
-    else tells an impact, a rise measured must be one stationary ringing shows at most
-    :data:`RISE_FALSE_ALARM` of the time (none where no frequency holds sound over the noise):
-    for a tick whose own sound does not ring down, and for an unconfirmed second tick (no
-    bounce after it confirms it: only the spectrum can). A tick that cannot be told from the ringing
-    is dropped, not reported; and so is a second tick louder than the first by over
-    :data:`~synth.analysis.series.MAX_EXCESS_DB` (a restitution below 1: the second impact is
-    no faster than the first, which starts the drop; a soft ball's release at the end of a long
-    contact is such a burst)."""
+    """Indices of the doubtful ticks no impact made: no spectral rise where decided, or no rise
+    and no decay over :data:`SILENT_MIN_LINES` lines (a single ringing line's power may fall
+    when an impact hits it out of phase). A tick at a series' end that no bounce confirms
+    (:func:`_told_by_spectrum`) is told by its spectrum alone: dropped unless the rise measured
+    is one stationary ringing shows at most :data:`RISE_FALSE_ALARM` of the time (none where
+    no frequency holds sound over the noise), not reported as a doubtful one. A second tick
+    louder than the first by over :data:`~synth.analysis.series.MAX_EXCESS_DB` is dropped too
+    (a restitution below 1: the second impact is no faster than the first, which starts the
+    drop; a soft ball's release at the end of a long contact is such a burst)."""
     missed = missed_bounces(ticks)
     out = [1] if _louder_second(ticks) else []
     for i in doubtful_ticks(ticks):
@@ -227,9 +247,10 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
         silent = ticks[i].decay_time is None
-        unconfirmed = i == 1 and not _confirmed_second(ticks, missed)
-        if (not verdict.adds and verdict.decisive) or (
-            (silent or unconfirmed) and verdict.measured and not verdict.significant
+        lines = verdict.frequencies >= SILENT_MIN_LINES * HANN_LINE_BINS
+        unconfirmed = _told_by_spectrum(ticks, i, missed)
+        if (not verdict.adds and (verdict.decisive or (silent and lines))) or (
+            unconfirmed and verdict.measured and not verdict.significant
         ):
             out.append(i)
     return out
