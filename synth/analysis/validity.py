@@ -233,12 +233,13 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
     when an impact hits it out of phase). A tick at a series' end that no bounce confirms
     (:func:`_told_by_spectrum`) is told by its spectrum alone: dropped unless the rise measured
     is one stationary ringing shows at most :data:`RISE_FALSE_ALARM` of the time (none where
-    no frequency holds sound over the noise), not reported as a doubtful one. A second tick
-    louder than the first by over :data:`~synth.analysis.series.MAX_EXCESS_DB` is dropped too
-    (a restitution below 1: the second impact is no faster than the first, which starts the
-    drop; a soft ball's release at the end of a long contact is such a burst)."""
+    no frequency holds sound over the noise), not reported as a doubtful one. An unconfirmed
+    second tick louder than the first by over :data:`~synth.analysis.series.MAX_EXCESS_DB` is
+    dropped too (a restitution below 1: the second impact is no faster than the first, which
+    starts the drop; a soft ball's release at the end of a long contact is such a burst; the
+    bounces after a confirmed one show a ball, its level rising as it nears the listener)."""
     missed = missed_bounces(ticks)
-    out = [1] if _louder_second(ticks) else []
+    out = [1] if _louder_second(ticks) and not _confirmed_second(ticks, missed) else []
     for i in doubtful_ticks(ticks):
         if i in out:
             continue
