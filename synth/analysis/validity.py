@@ -217,14 +217,13 @@ def _louder_second(ticks: list[Tick]) -> bool:
 def _told_by_spectrum(ticks: list[Tick], i: int, missed: set[int]) -> bool:
     """Whether only the spectrum can tell tick ``i`` an impact: a departing last tick
     (:func:`_departing_last`), or a second tick the restitutions after it do not confirm
-    (:func:`_confirmed_second`) where fewer than two ticks follow it or its own sound does not
-    ring down either (a second tick that rings down, with a series after it, is judged as any
-    doubtful tick: a plate's uneven bounces leave a real one unconfirmed)."""
+    (:func:`_confirmed_second`) whose own sound does not ring down either (one that rings down
+    is judged as any doubtful tick: a plate's uneven bounces leave a real one unconfirmed)."""
     if _departing_last(ticks, i):
         return True
     if i != 1 or _confirmed_second(ticks, missed):
         return False
-    return len(ticks) < 4 or ticks[1].decay_time is None
+    return ticks[1].decay_time is None
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
