@@ -138,8 +138,8 @@ def _ringing(fs: float, seconds: float, seed: int) -> np.ndarray:
 
 
 def test_a_doubtful_tick_told_by_nothing_is_dropped():
-    # stationary ringing holds no impact: a second tick in it that nothing confirms (no two
-    # agreeing bounces after it) and that does not ring down is dropped unless its spectrum
+    # stationary ringing holds no impact: a second tick in it that nothing confirms (no
+    # bounces after it) and that does not ring down is dropped unless its spectrum
     # rises beyond RISE_FALSE_ALARM, whatever the frequencies that hold sound (a ringing
     # plate's bursts over a few lines were kept, 0.97 s after the impact)
     fs = 48000
@@ -148,13 +148,9 @@ def test_a_doubtful_tick_told_by_nothing_is_dropped():
     first = analysis_tick(0.005)
     silent = analysis_tick(0.97, decay_time=None)
     assert not_impacts([first, silent], test) == [1]
-    silent = analysis_tick(0.77, decay_time=None)
-    after = analysis_tick(1.34, restitution=(1.34 - 0.77) / (0.77 - 0.005))
-    assert 1 in doubtful_ticks([first, silent, after])  # e_2 alone: unconfirmed
-    assert 1 in not_impacts([first, silent, after], test)
     # a real impact's broad spectrum over the ringing rises beyond chance: kept
-    impact = _with_impact(x, fs, 0.77)
-    assert not_impacts([first, silent, after], impact) == []
+    impact = _with_impact(x, fs, 0.97)
+    assert not_impacts([first, silent], impact) == []
 
 
 def _with_impact(x: np.ndarray, fs: float, at: float) -> RiseTest:

@@ -199,7 +199,7 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
     """Whether ``e_2 < 1`` over no missed bounce, and ``e_3`` within
     :data:`~synth.analysis.series.RESTITUTION_STEP` of it, confirm the second tick."""
     following = ticks[2:4]
-    if len(following) < 2 or missed & {2, 3}:
+    if not following or missed & {2, 3}:
         return False
     if not all(_restitution_below_one(t) for t in following):
         return False
