@@ -3,17 +3,22 @@ analysis must not report (a false tick, an impossible value) and how each rule k
 (docs/analysis.md, Method). Each scene is scored against the engine's scheduler as
 ``synth bench analysis --random`` scores its random ones (benchmarks/analysis_scenes.py)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import analysis_tick
 
 from benchmarks.analysis_scenes import SceneSpec, run_scene
-from synth.analysis.detection import stand_out
+from synth.analysis.detection import detect, first_ticks, stand_out
 from synth.analysis.options import AnalysisOptions
+from synth.analysis.series import MAX_EXCESS_DB
 from synth.analysis.settings import make_settings
 from synth.analysis.validity import (
     SPECTRAL_RISE_MIN_SPAN,
     RiseTest,
+    doubtful_ticks,
+    not_impacts,
     rise_verdict,
     without_spurious_end,
 )
@@ -99,3 +104,94 @@ def test_scene_without_false_tick_or_impossible_value(spec):
     s = run_scene(spec)
     assert s.error is None, s.error
     assert (s.false_ticks, s.impossible, s.missed) == (0, 0, 0), s.faults
+
+
+def test_the_first_onset_is_walked_back_over_the_lead_in_not_its_own_ringing():
+    # a whitened first burst over a digitally silent lead-in: 0.5 ms of contact at a tenth of
+    # the burst's peak, then 20 ms of ringing the whitening leaves nearly as loud as the peak
+    # (a thin, lightly damped plate). The centred running median there holds that ringing, 4
+    # of its standard deviations are over the peak, and the walk stopped at the peak, 1 ms
+    # late; the noise level is the lead-in's, the background the threshold rises from
+    fs = 44100
+    settings = make_settings(1, fs, AnalysisOptions())
+    rng = np.random.default_rng(5001)
+    start = 221
+    r = np.zeros(int(0.06 * fs))
+    contact = int(0.0005 * fs)
+    sign = (-1.0) ** np.arange(contact)
+    r[start : start + contact] = 150.0 * sign
+    r[start + contact : start + contact + 20] = 1400.0 * (-1.0) ** np.arange(20)
+    ring = slice(start + contact + 20, start + int(0.021 * fs))
+    r[ring] = 700.0 * rng.standard_normal(ring.stop - ring.start)
+    found = detect(r, settings, settings.background)
+    assert found.background[found.peaks[0]] < 1.0  # the lead-in's, not the ringing's
+    onset = first_ticks(r, settings, settings.background).onsets[0]
+    assert abs(onset - start) <= 1.0, onset - start  # within a sample period
+
+
+def _ringing(fs: float, seconds: float, seed: int) -> np.ndarray:
+    """A plate's stationary ringing: 40 modes, 500 Hz to 9 kHz, random phases."""
+    t = np.arange(int(seconds * fs)) / fs
+    rng = np.random.default_rng(seed)
+    freqs = np.linspace(500.0, 9000.0, 40)
+    return sum(np.sin(2 * np.pi * f * t + p) for f, p in zip(freqs, rng.uniform(0, 6.3, 40)))
+
+
+def test_a_doubtful_tick_told_by_nothing_is_dropped():
+    # stationary ringing holds no impact: a second tick in it that nothing confirms (no
+    # bounces after it) and that does not ring down is dropped unless its spectrum
+    # rises beyond RISE_FALSE_ALARM, whatever the frequencies that hold sound (a ringing
+    # plate's bursts over a few lines were kept, 0.97 s after the impact)
+    fs = 48000
+    x = _ringing(fs, 1.5, 5002)
+    test = RiseTest(lambda a, b: x[a:b], fs, 60.0, 0.0)
+    first = analysis_tick(0.005)
+    silent = analysis_tick(0.97, decay_time=None)
+    assert not_impacts([first, silent], test) == [1]
+    # a real impact's broad spectrum over the ringing rises beyond chance: kept
+    impact = _with_impact(x, fs, 0.97)
+    assert not_impacts([first, silent], impact) == []
+
+
+def _with_impact(x: np.ndarray, fs: float, at: float) -> RiseTest:
+    """The :class:`RiseTest` of ``x`` (rate ``fs``, Hz) with an impact's broad burst at ``at``
+    (s) over it, 30 times the ringing's modes."""
+    y = x.copy()
+    k = int(at * fs)
+    tt = np.arange(y.size - k) / fs
+    y[k:] += 30.0 * np.exp(-tt / 0.005) * np.sin(2 * np.pi * 3000.0 * tt) * np.cos(
+        2 * np.pi * 7100.0 * tt
+    ) + 30.0 * np.exp(-tt / 0.003) * np.random.default_rng(5003).standard_normal(tt.size)
+    return RiseTest(lambda a, b: y[a:b], fs, 60.0, 0.0)
+
+
+def test_a_second_tick_louder_than_the_first_is_no_bounce():
+    # restitution below 1: the second impact is no faster than the first, so its sound is no
+    # louder (MAX_EXCESS_DB for the measurement); a soft ball's release at the end of a long
+    # contact, 2 ms after its onset, carried 7 dB more than the onset's tick and was reported
+    fs = 48000
+    x = _ringing(fs, 0.4, 5004)
+    test = _with_impact(x, fs, 0.1)  # the second tick's spectrum rises beyond chance
+    first = analysis_tick(0.005)
+    for excess_db, dropped in ((MAX_EXCESS_DB + 1.0, [1]), (MAX_EXCESS_DB - 1.0, [])):
+        second = replace(analysis_tick(0.1), energy=10.0 ** (excess_db / 10.0))
+        assert not_impacts([first, second], test) == dropped, excess_db
+    # bounces after it that confirm it (two agreeing restitutions) show a ball nearing the
+    # listener, its level rising: kept
+    second = replace(analysis_tick(0.1), energy=10.0 ** ((MAX_EXCESS_DB + 1.0) / 10.0))
+    ball = [analysis_tick(0.18, restitution=0.8), analysis_tick(0.244, restitution=0.8)]
+    assert not_impacts([first, second, *ball], test) == []
+
+
+def test_a_last_tick_whose_restitution_departs_and_that_does_not_ring_down_is_doubtful():
+    # missed_bounces needs a neighbour on each side; a last tick whose bounce parts the
+    # series' steady restitution (0.84, then 0.57) is doubtful where its own sound does not
+    # ring down, and a real one (it decays) is not
+    times = [0.0, 0.1, 0.184, 0.2546, 0.2546 + 0.0706 * 0.57]
+    ticks = [analysis_tick(times[0]), analysis_tick(times[1])]
+    for n in range(2, len(times)):
+        e = (times[n] - times[n - 1]) / (times[n - 1] - times[n - 2])
+        ticks.append(analysis_tick(times[n], restitution=e))
+    assert doubtful_ticks(ticks) == []
+    ticks[-1] = replace(ticks[-1], decay_time=None)
+    assert doubtful_ticks(ticks) == [len(ticks) - 1]

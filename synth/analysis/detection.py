@@ -120,7 +120,8 @@ def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
 
 @dataclass(frozen=True)
 class Detection:
-    """Steps 2-3's candidate frames, ``d``, and each frame's threshold and background."""
+    """Steps 2-3's candidate frames, ``d``, and each frame's threshold and the background it
+    rises from (:func:`_rises_from`: the first burst's, the lead-in's; step 4's noise level)."""
 
     peaks: np.ndarray
     d: np.ndarray
@@ -137,14 +138,15 @@ def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
     d = frame_energies(r, hop, settings.frame)
     size = max(3, int(round(background * settings.samplerate / hop)) | 1)
     med = median_filter(d, size=size, mode="nearest")
+    rises = _rises_from(d, med, size, settings)
     threshold = np.maximum.reduce(
         [
-            _rises_from(d, med, size, settings) * 10.0 ** (settings.threshold_db / 10.0),
+            rises * 10.0 ** (settings.threshold_db / 10.0),
             _fading_memory(d, hop, settings) * 10.0 ** (settings.rise_db / 10.0),
             np.full_like(d, d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)),
         ]
     )
-    return Detection(_candidates(d, threshold, settings), d, threshold, med)
+    return Detection(_candidates(d, threshold, settings), d, threshold, rises)
 
 
 def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -> np.ndarray:

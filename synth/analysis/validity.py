@@ -106,17 +106,21 @@ def rise_ratios_db(
 #: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
 #: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
 HANN_LINE_BINS = 4
-#: Least lines of sound for :func:`not_impacts` to drop a silent tick.
+#: Least lines of sound for :func:`not_impacts` to drop a silent tick within a series.
 SILENT_MIN_LINES = 3
 
 
 @dataclass(frozen=True)
 class RiseVerdict:
-    """Whether the spectrum rises, whether that is decisive, over how many frequencies."""
+    """Whether the spectrum rises, whether that is decisive, over how many frequencies; whether
+    the stretch was measured (long enough), and whether the rise measured is one stationary
+    ringing shows at most :data:`RISE_FALSE_ALARM` of the time (``significant``)."""
 
     adds: bool
     decisive: bool
     frequencies: int = 0
+    measured: bool = False
+    significant: bool = False
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
@@ -136,13 +140,12 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
         seg = seg[seg.size - 2 * n :]
     ratios = rise_ratios_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
     if not ratios.size:
-        return undecided
+        return RiseVerdict(True, False, measured=True)
     decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
     rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
+    significant = rises and rise_chance(ratios) <= RISE_FALSE_ALARM
     return RiseVerdict(
-        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive),
-        decisive,
-        int(ratios.size),
+        significant or (rises and not decisive), decisive, int(ratios.size), True, significant
     )
 
 
@@ -166,7 +169,7 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
 
 def doubtful_ticks(ticks: list[Tick]) -> list[int]:
     """Indices of the ticks after the first whose bounce times show no ball's bounce: grown, after a
-    grown one, over a missed one, or an unconfirmed second tick."""
+    grown one, over a missed one, an unconfirmed second tick, or a departing last one."""
     missed = missed_bounces(ticks)
     out = []
     for i in range(1, len(ticks)):
@@ -174,9 +177,22 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
             e is not None and not e < 1.0 for e in (ticks[i - 1].restitution, ticks[i].restitution)
         ]
         unconfirmed = i == 1 and not _confirmed_second(ticks, missed)
-        if unconfirmed or any(grown) or i in missed:
+        if unconfirmed or any(grown) or i in missed or _departing_last(ticks, i):
             out.append(i)
     return out
+
+
+def _departing_last(ticks: list[Tick], i: int) -> bool:
+    """Whether tick ``i`` is the last, its own sound does not ring down, and its restitution
+    departs from the one before by over :data:`~synth.analysis.series.RESTITUTION_STEP`: a
+    missed bounce or no bounce, and neither a tick after it (:func:`missed_bounces` needs both
+    neighbours) nor its sound tells which."""
+    if i + 1 < len(ticks) or ticks[i].decay_time is not None or not valid_restitution(ticks[i]):
+        return False
+    before = ticks[i - 1]
+    return valid_restitution(before) and (
+        abs(ticks[i].restitution / before.restitution - 1.0) > RESTITUTION_STEP
+    )
 
 
 def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
@@ -192,18 +208,50 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
     )
 
 
+def _louder_second(ticks: list[Tick]) -> bool:
+    """Whether the second tick is over :data:`~synth.analysis.series.MAX_EXCESS_DB` louder than
+    the first: no bounce of it."""
+    return len(ticks) > 1 and ticks[1].energy > ticks[0].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
+
+
+def _told_by_spectrum(ticks: list[Tick], i: int, missed: set[int]) -> bool:
+    """Whether only the spectrum can tell tick ``i`` an impact: a departing last tick
+    (:func:`_departing_last`), or a second tick the restitutions after it do not confirm
+    (:func:`_confirmed_second`) whose own sound does not ring down either (one that rings down
+    is judged as any doubtful tick: a plate's uneven bounces leave a real one unconfirmed)."""
+    if _departing_last(ticks, i):
+        return True
+    if i != 1 or _confirmed_second(ticks, missed):
+        return False
+    return ticks[1].decay_time is None
+
+
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks no impact made: no spectral rise where decided, or no rise and
-    no decay over :data:`SILENT_MIN_LINES` lines."""
-    out = []
+    """Indices of the doubtful ticks no impact made: no spectral rise where decided, or no rise
+    and no decay over :data:`SILENT_MIN_LINES` lines (a single ringing line's power may fall
+    when an impact hits it out of phase). A tick at a series' end that no bounce confirms
+    (:func:`_told_by_spectrum`) is told by its spectrum alone: dropped unless the rise measured
+    is one stationary ringing shows at most :data:`RISE_FALSE_ALARM` of the time (none where
+    no frequency holds sound over the noise), not reported as a doubtful one. An unconfirmed
+    second tick louder than the first by over :data:`~synth.analysis.series.MAX_EXCESS_DB` is
+    dropped too (a restitution below 1: the second impact is no faster than the first, which
+    starts the drop; a soft ball's release at the end of a long contact is such a burst; the
+    bounces after a confirmed one show a ball, its level rising as it nears the listener)."""
+    missed = missed_bounces(ticks)
+    out = [1] if _louder_second(ticks) and not _confirmed_second(ticks, missed) else []
     for i in doubtful_ticks(ticks):
+        if i in out:
+            continue
         gaps = [ticks[i].time - ticks[i - 1].time]
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
         silent = ticks[i].decay_time is None
         lines = verdict.frequencies >= SILENT_MIN_LINES * HANN_LINE_BINS
-        if not verdict.adds and (verdict.decisive or (silent and lines)):
+        unconfirmed = _told_by_spectrum(ticks, i, missed)
+        if (not verdict.adds and (verdict.decisive or (silent and lines))) or (
+            unconfirmed and verdict.measured and not verdict.significant
+        ):
             out.append(i)
     return out
 
