@@ -1,13 +1,15 @@
 """First use of the compiled kernels: the options every kernel is compiled with
 (:func:`compiled`), the groups whose compile takes seconds (:data:`GROUPS`), a note once
 per process before a group missing from numba's disk cache compiles (:func:`announce`,
-which first waits for a process compiling that group ahead, :data:`LOCKS`), and the log
+which first waits for a process compiling that group ahead, :data:`LOCKS`), one compile of
+a kernel at a time among processes sharing a disk cache (:data:`KERNEL_LOCKS`), and the log
 of every compile with its CPU time (:class:`CompileLog`, for ``synth warmup`` and
 ``synth bench cold``).
 """
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import json
 import os
@@ -24,6 +26,9 @@ from synth import jitcache
 
 jitcache.stamp_with_the_import_closure()
 jitcache.keep_kernels_the_cache_cannot_hold()
+
+#: This package's folder: the kernels whose compiles take :data:`KERNEL_LOCKS`.
+_ROOT = os.path.dirname(os.path.realpath(__file__)) + os.sep
 
 #: numba's fast-math flags of a kernel: none, or with ``sums=True`` (the modal bank's
 #: loops over modes, whose sums must vectorise) :data:`FAST_SUMS`. Always given, never
@@ -124,6 +129,84 @@ _announced: set[str] = set()
 #: each group is in numba's disk cache. A process about to compile such a group waits for
 #: it, then loads the kernels instead of compiling them a second time at once.
 LOCKS = "SYNTH_COMPILE_LOCKS"
+
+
+#: Environment variable: a folder in which processes that share numba's disk cache take a
+#: lock per kernel (:func:`kernel_lock_file`) while they compile it or load it from the
+#: cache: a process about to compile a kernel that another is compiling (the workers of a
+#: run spread over processes, starting alike) waits for it, then loads its code from the
+#: cache, rather than compile it a second time at once.
+KERNEL_LOCKS = "SYNTH_KERNEL_LOCKS"
+#: The lock files of the kernels this process holds (a kernel that calls itself).
+_held_kernels: set[Path] = set()
+
+
+def kernel_lock_file(folder: str | Path, dispatcher) -> Path | None:
+    """The lock file in ``folder`` of the kernel ``dispatcher``'s entry in numba's disk
+    cache (its index file, which names the cache folder: processes on other caches take
+    other locks), in the subfolder ``kernels``; None for a kernel that is not cached."""
+    index = getattr(
+        getattr(getattr(dispatcher, "_cache", None), "_cache_file", None), "_index_path", None
+    )
+    if index is None:
+        return None
+    digest = hashlib.sha256(os.path.realpath(index).encode()).hexdigest()[:32]
+    return Path(folder) / "kernels" / f"{digest}.lock"
+
+
+@contextmanager
+def kernel_lock(dispatcher):
+    """Hold the lock of the kernel ``dispatcher`` in :data:`KERNEL_LOCKS` (waiting while
+    another process holds it); nothing without that folder, without POSIX locks, for a
+    kernel that is not cached, or one whose lock this process holds already."""
+    folder = os.environ.get(KERNEL_LOCKS)
+    path = kernel_lock_file(folder, dispatcher) if folder else None
+    if path is None or path in _held_kernels:
+        yield
+        return
+    try:
+        import fcntl
+
+        path.parent.mkdir(exist_ok=True)
+        handle = open(path, "wb")
+    except (ImportError, OSError):
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        _held_kernels.add(path)
+        try:
+            yield
+        finally:
+            _held_kernels.discard(path)
+
+
+def _lock_kernel_compiles() -> None:
+    """Compile (or load) each kernel of this package under its :func:`kernel_lock`, taken
+    under numba's compiler lock (one compile at a time in a process, as numba does): numba
+    looks in its disk cache first, so a process that waited loads what the other compiled.
+    A kernel's callees compile inside its compile, each under its own lock, so locks are
+    taken in the order of the calls, which never loop back."""
+    from numba.core.compiler_lock import global_compiler_lock
+    from numba.core.dispatcher import Dispatcher
+
+    if getattr(Dispatcher, "synth_kernel_locks", False):
+        return
+    own_compile = Dispatcher.compile
+
+    def compile(self, sig):
+        if not os.environ.get(KERNEL_LOCKS) or not os.path.realpath(
+            self.py_func.__code__.co_filename
+        ).startswith(_ROOT):
+            return own_compile(self, sig)
+        with global_compiler_lock, kernel_lock(self):
+            return own_compile(self, sig)
+
+    Dispatcher.compile = compile
+    Dispatcher.synth_kernel_locks = True
+
+
+_lock_kernel_compiles()
 
 
 def lock_file(folder: str | Path, name: str) -> Path:

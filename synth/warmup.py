@@ -9,6 +9,7 @@ can compile some kernel groups ahead while this one works (:func:`start_ahead`).
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -20,6 +21,7 @@ from pathlib import Path
 from synth.compilation import (
     COMPILE_TIMES,
     GROUPS,
+    KERNEL_LOCKS,
     LOCKS,
     CompileLog,
     is_cached,
@@ -217,6 +219,8 @@ class Ahead:
         status = self.process.returncode
         self.process.stdout.close()
         os.environ.pop(LOCKS, None)
+        os.environ.pop(KERNEL_LOCKS, None)
+        shutil.rmtree(self.folder / "kernels", ignore_errors=True)
         for name in self.names:
             lock_file(self.folder, name).unlink(missing_ok=True)
         same_cache_file(self.folder).unlink(missing_ok=True)
@@ -231,16 +235,19 @@ def start_ahead(names: list[str], folder: Path | None = None) -> Ahead | None:
     """Start a child process that compiles those of the kernel groups ``names`` that are
     not in numba's disk cache (:func:`compile_ahead`), while this one goes on, and return
     once it holds their locks; this process and its children (:data:`LOCKS` in the
-    environment) then wait for a group it holds rather than compile it too. The locks go
-    in ``folder`` (an empty folder; default: a new temporary one), which processes started
-    before may already have as :data:`LOCKS`. None if every group is cached, or the child
-    ended before it held the locks (POSIX locks missing)."""
+    environment) then wait for a group it holds rather than compile it too, and all take
+    each kernel's lock while they compile it (:data:`KERNEL_LOCKS`, the same folder). The
+    locks go in ``folder`` (an empty folder; default: a new temporary one), which processes
+    started before may already have as :data:`LOCKS` and :data:`KERNEL_LOCKS`. None if
+    every group is cached, or the child ended before it held the locks (POSIX locks
+    missing)."""
     missing = [name for name in names if not is_cached(GROUPS[name])]
     if not missing:
         return None
     folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-")) if folder is None else folder
     same_cache_file(folder).write_text(os.environ.get("NUMBA_CACHE_DIR", ""))
     env = {k: v for k, v in os.environ.items() if k != LOCKS}
+    env[KERNEL_LOCKS] = str(folder)
     code = "import sys; from synth import warmup; warmup.compile_ahead(sys.argv[1], sys.argv[2:])"
     errors = tempfile.TemporaryFile()
     process = subprocess.Popen(
@@ -254,4 +261,5 @@ def start_ahead(names: list[str], folder: Path | None = None) -> Ahead | None:
         ahead.finish()
         return None
     os.environ[LOCKS] = str(folder)
+    os.environ[KERNEL_LOCKS] = str(folder)
     return ahead

@@ -168,21 +168,23 @@ def pytest_xdist_auto_num_workers(config):
 def pytest_sessionstart(session):
     """The controller of a run over workers: a folder for the workers' groups
     (:data:`GROUPS_FOLDER`) and an empty lock folder in the environment the workers start
-    with (:data:`synth.compilation.LOCKS`); the lock folder holds no lock until the
-    controller compiles ahead (:func:`pytest_xdist_node_collection_finished`)."""
+    with: each kernel's lock while a process compiles it (the workers start alike, so one
+    compiles what the other then loads, :data:`synth.compilation.KERNEL_LOCKS`), and the
+    groups' (:data:`synth.compilation.LOCKS`), which the folder holds once the controller
+    compiles ahead (:func:`pytest_xdist_node_collection_finished`)."""
     config = session.config
     if not _is_controller(config):
         return
     groups = Path(tempfile.mkdtemp(prefix="synth-xdist-groups-"))
     config.stash[_GROUPS] = groups
     os.environ[GROUPS_FOLDER] = str(groups)
-    if os.environ.get("SYNTH_TEST_AHEAD") == "0":
-        return
-    from synth.compilation import LOCKS
+    from synth.compilation import KERNEL_LOCKS, LOCKS
 
     folder = Path(tempfile.mkdtemp(prefix="synth-compile-locks-"))
     config.stash[_LOCK_FOLDER] = folder
-    os.environ[LOCKS] = str(folder)
+    os.environ[KERNEL_LOCKS] = str(folder)
+    if os.environ.get("SYNTH_TEST_AHEAD") != "0":
+        os.environ[LOCKS] = str(folder)
 
 
 @pytest.hookimpl(optionalhook=True)
@@ -192,7 +194,7 @@ def pytest_xdist_node_collection_finished(node, ids):
     reaches them."""
     config = node.config
     folder = config.stash.get(_LOCK_FOLDER, None)
-    if folder is None or _AHEAD in config.stash:
+    if folder is None or _AHEAD in config.stash or os.environ.get("SYNTH_TEST_AHEAD") == "0":
         return
     files = {nodeid.split("::", 1)[0].rsplit("/", 1)[-1] for nodeid in ids}
     if _ahead_wanted(len(ids), files):
@@ -255,9 +257,10 @@ def pytest_sessionfinish(session):
         config.workeroutput["synth_cpu"] = (cpu.own, cpu.children)
     folder = config.stash.get(_LOCK_FOLDER, None)
     if folder is not None:  # the controller's, if no process compiled ahead into it
-        from synth.compilation import LOCKS
+        from synth.compilation import KERNEL_LOCKS, LOCKS
 
         os.environ.pop(LOCKS, None)
+        os.environ.pop(KERNEL_LOCKS, None)
         shutil.rmtree(folder, ignore_errors=True)
     if _GROUPS in config.stash:
         os.environ.pop(GROUPS_FOLDER, None)

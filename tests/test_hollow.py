@@ -1,6 +1,7 @@
 """Hollow balls: the thin-shell contact law's closed forms, its energy balance, its checks,
 the rule books' bounce tests (docs/validation.md, "Hollow balls") and a preset's render."""
 
+import functools
 import math
 import re
 from pathlib import Path
@@ -9,13 +10,22 @@ import numpy as np
 import pytest
 
 import synth
-from benchmarks.hollow import RULE_BOOK_TESTS, format_hollow, rule_book_row, shell_elastic_force
+from benchmarks.hollow import RULE_BOOK_TESTS, format_hollow, shell_elastic_force
+from benchmarks.hollow import rule_book_row as _rule_book_row
 from synth.constants import AIR_DENSITY
 from synth.io.presets import PresetError, load_preset, scene_from_dict
 from synth.physics.contact import ContactSolver, solve_impact
 from synth.physics.contact_law import POGORELOV_CONSTANT, shell_law
 from synth.physics.materials import Material
 from synth.physics.scene import Contact, HollowBall, Plate, Scene
+
+
+@functools.cache
+def rule_book_row(test):
+    """:func:`benchmarks.hollow.rule_book_row` of ``test`` (two shell contacts at rtol 1e-9),
+    computed once for the module: a pure function of the test, read by several tests."""
+    return _rule_book_row(test)
+
 
 #: A lossless shell material (no damping law: the shell's loss is 0), ABS's elastic constants.
 ELASTIC_SHELL = Material("elastic-shell", 1050.0, 2.2e9, 0.39)

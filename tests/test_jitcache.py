@@ -116,6 +116,35 @@ def test_the_package_kernels_carry_their_import_closure_stamp():
     assert "engine.py" not in closure and "equations.py" in closure
 
 
+def test_a_kernel_another_process_compiles_is_waited_for_then_loaded(tmp_path, monkeypatch):
+    import fcntl
+    import threading
+
+    import numba
+
+    from synth import compilation
+    from synth.vecmath import halvings_for
+
+    # a dispatcher of the package's kernel with no specialisation yet, on its cache entry
+    kernel = numba.njit(cache=True)(halvings_for.py_func)
+    monkeypatch.setenv(compilation.KERNEL_LOCKS, str(tmp_path))
+    path = compilation.kernel_lock_file(tmp_path, kernel)
+    assert path == compilation.kernel_lock_file(tmp_path, halvings_for)  # one cache entry
+    path.parent.mkdir()
+    holder = open(path, "wb")
+    fcntl.flock(holder, fcntl.LOCK_EX)  # as a process compiling it
+    try:
+        caller = threading.Thread(target=kernel, args=(3.0,))
+        caller.start()
+        caller.join(0.2)
+        assert caller.is_alive() and not kernel.overloads  # it waits for the lock
+    finally:
+        holder.close()
+    caller.join(60)
+    assert not caller.is_alive() and len(kernel.overloads) == 1
+    assert kernel(3.0) == 2
+
+
 def test_a_group_compiled_ahead_is_waited_for_in_the_same_cache_only(tmp_path, monkeypatch):
     import fcntl
     import threading

@@ -248,7 +248,7 @@ def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - c
             for q in range(P):
                 Gs[r, q] = G[idx[r], idx[q]]
             diag[r] = Gs[r, r]
-        load = 1e-12 * pairwise_sum(diag, 0, P) / P + 1e-300
+        load = 1e-12 * pairwise_sum(diag, np.int64(0), P) / P + 1e-300  # int64: one specialisation
         for r in range(P):
             Gs[r, r] += load
         h = np.linalg.solve(Gs, b[idx])

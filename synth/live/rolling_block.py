@@ -12,6 +12,7 @@ import numba
 import numpy as np
 from numba import types
 from numba.core import cgutils
+from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 
 from synth.compilation import compiled
@@ -81,6 +82,19 @@ def _xchg(typingctx, array, index, value):
         arr = context.make_array(arr_t)(context, builder, args[0])
         ptr = cgutils.get_item_pointer(context, builder, arr_t, arr, [args[1]])
         return builder.atomic_rmw("xchg", ptr, args[2], "seq_cst")
+
+    return sig, codegen
+
+
+@intrinsic
+def _read_only(typingctx, array):
+    """``array`` typed read-only, the same data: the envelope as Python hands it to
+    :func:`~synth.physics.rolling_kernels.roll` (read-only), so that the rolling kernels
+    compile once for both callers."""
+    sig = array.copy(readonly=True)(array)
+
+    def codegen(context, builder, signature, args):
+        return impl_ret_borrowed(context, builder, signature.return_type, args[0])
 
     return sig, codegen
 
@@ -269,7 +283,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
         speeds = buf[W_SPEED]
         for j in range(n):
             speeds[j] = speed
-        env = numba.carray(pointer_to(cv[I_ENV]), (cv[I_ENV_N], 4), np.float64)
+        env = _read_only(numba.carray(pointer_to(cv[I_ENV]), (cv[I_ENV_N], 4), np.float64))
         c = Constants(cf[F_M], cf[F_K], cf[F_N], cf[F_MU], cf[F_B], cf[F_BETA], cf[F_G], fs,
                       cf[F_RTOL], cf[F_DREF], cf[F_HMAX])  # fmt: skip
         status, steps, _, _, h = roll(
@@ -285,7 +299,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
                     force[j] = cf[F_PREVIOUS]
                     buf[W_CENTRE, j] = y[rolling_kernels.S]
             speed = 0.0
-    offsets = numba.carray(pointer_to(cv[I_OFF]), cv[I_OFF_N], np.float64)
+    offsets = _read_only(numba.carray(pointer_to(cv[I_OFF]), cv[I_OFF_N], np.float64))
     _contact_coordinates(buf[W_CENTRE, :n], speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
     cf[F_PREVIOUS], cf[F_SPEED] = force[n - 1], speed
     cv[I_FRAMES] += n

@@ -103,7 +103,7 @@ def _root(n, so, h, free, nu):  # pragma: no cover
             return hi * hi
         if (flo > 0.0) == (fhi > 0.0):
             return math.nan
-        return _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, True) ** 2
+        return _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, np.bool_(True)) ** 2
     # free, n = 0 or 1: scan s downwards from the top of the bracket
     top = (math.pi / (2.0 * h)) ** 2 if odd else 0.0
     bottom = -2.0 * so if so > 0.0 else top - (math.pi / h) ** 2
@@ -116,7 +116,8 @@ def _root(n, so, h, free, nu):  # pragma: no cover
         s = top + (bottom - top) * (i / steps) * (1.0 - 1e-9)
         f = _characteristic(s, so, h, free, odd, nu)
         if (f > 0.0) != (prev_f > 0.0):
-            return _illinois(s, prev_s, f, prev_f, so, h, free, odd, nu, False)
+            # a bool, not a literal: one specialisation of _illinois for both calls
+            return _illinois(s, prev_s, f, prev_f, so, h, free, odd, nu, np.bool_(False))
         prev_s, prev_f = s, f
     return math.nan
 

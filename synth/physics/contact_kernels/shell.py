@@ -220,7 +220,7 @@ def integrate(law, rtol, atol):
     K = np.empty((7, 4))
     shell_rhs(y, law, K[0])
     h = 0.01 * rtol**0.2
-    nh = 0
+    nh = np.int64(0)  # not the literal 0: numba would compile grow_history for it too
     settle = 0.5 * (law.lam * law.G) ** 2
     xt = law.xt
     for _ in range(SHELL_STEP_LIMIT):
@@ -302,7 +302,8 @@ def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
             k -= 1
         s_force = min(_root_in_row(hist, k, law, _FORCE), s_end)
     # peaks: on the dense output around the largest step ends
-    kx, kf, vx, vf = 0, 0, -1.0, -1.0
+    # int64 from the start: a literal 0 would compile _golden_max a second time
+    kx, kf, vx, vf = np.int64(0), np.int64(0), -1.0, -1.0
     for k in range(nh):
         if hist[k, S_X1] > vx:
             vx, kx = hist[k, S_X1], k

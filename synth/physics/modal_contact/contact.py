@@ -246,7 +246,7 @@ class ModalContact:
             self.mass, self.stiffness, self.exponent, self.dissipation, 1.5 * self.viscous_time,
             self.gravity,
         )  # fmt: skip
-        dy = None if self.yield_penetration == math.inf else self.yield_penetration
+        dy = float(self.yield_penetration)  # inf: no yield
         announce("modal-contact")
         o = contact_kernel(p.oscillators, q, v, x, law, dy, v_in, h, max_steps, pulse)
         times, forces, gaps, rates = pulse[:, : o.steps + 1].copy()

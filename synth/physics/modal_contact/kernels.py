@@ -169,7 +169,7 @@ def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
     ``r`` from the largest penetration ``dm`` (m)."""
     if d <= 0.0:
         return 0.0, 0.0
-    if dy is not None:
+    if dy != math.inf:
         a, r, da, dr = yield_law(d, dy, dm)
     else:
         r = d ** (n - 1.0)
@@ -277,9 +277,9 @@ def _step(q, v, p, P, G, E, r0, r1, x, qr, vr, u, vs, F0, F1, h, law):  # pragma
 @compiled()
 def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragma: no cover
     """One contact from first touch at ``v_in`` (m/s) on plate ``p`` under ``law``, yield past
-    ``dy`` (m; None: compiled without); fixed steps ``h`` (s), the last cut at separation. The
-    plate's state is advanced in place; ``pulse`` takes time (s), force (N), penetration (m)
-    and rate (m/s) per step."""
+    ``dy`` (m; inf: none, a float either way so that the kernel compiles once); fixed steps
+    ``h`` (s), the last cut at separation. The plate's state is advanced in place; ``pulse``
+    takes time (s), force (N), penetration (m) and rate (m/s) per step."""
     times, forces, gaps, rates = pulse[0], pulse[1], pulse[2], pulse[3]
     m, K, n, mu, b = law.m, law.K, law.n, law.mu, law.b
     N = q.size
@@ -296,7 +296,7 @@ def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragm
         Bv += p.c[k] * G[k, 3]
     lossy = mu != 0.0 or b != 0.0
     plain = not lossy  # the elastic law: its own root
-    if dy is not None:
+    if dy != math.inf:
         plain = False
     contact_loss = 0.0
     work = 0.0  # the elastic-plastic force's work on the penetration (trapezoid rule), J
@@ -319,7 +319,7 @@ def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragm
         separated = A <= 0.0
         if separated:
             # the gap opens within this step: the step hs to delta(hs) = 0, force falling to 0
-            g_lo = gaps[i] if dy is not None else (F0 / K) ** (1.0 / n)  # delta at the start
+            g_lo = gaps[i] if dy != math.inf else (F0 / K) ** (1.0 / n)  # delta at the start
             gap_args = (q, v, p, F0, qr, vr, x, u, vs, law)
             hs = illinois(_end_gap, gap_args, 0.0, h, g_lo, A, 1e-13 * h, 0.0)
             Ps = np.empty((N, 4))
@@ -335,7 +335,7 @@ def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragm
             d1 = _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dmax)
             F1 = _lossy_force(d1, K, n, mu, b, Av, Bv, dy, dmax)[0]
         Fe1 = 0.0
-        if dy is not None:
+        if dy != math.inf:
             Fe1 = K * yield_law(d1, dy, dmax)[0] if d1 > 0.0 else 0.0
             Fe0 = K * yield_law(gaps[i], dy, dmax)[0] if gaps[i] > 0.0 else 0.0
             work += 0.5 * (Fe0 + Fe1) * (d1 - gaps[i])
@@ -353,7 +353,7 @@ def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragm
         rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
         if lossy:
             Fd1 = F1 - K * d1**n
-            if dy is not None:
+            if dy != math.inf:
                 Fd1 = F1 - Fe1
             contact_loss += 0.5 * hs * (Fd0 * rates[i] + Fd1 * rates[i + 1])
             Fd0 = Fd1
@@ -363,7 +363,7 @@ def contact_kernel(p, q, v, x_res, law, dy, v_in, h, max_steps, pulse):  # pragm
         if separated:
             break
     x_res[0] = x
-    if dy is not None:
+    if dy != math.inf:
         # the plastic work: the elastic-plastic force's work less the energy it still holds
         end = gaps[steps]
         contact_loss += work - (K * yield_potential(end, dy, dmax) if end > 0.0 else 0.0)
