@@ -1640,3 +1640,41 @@ def test_a_first_hit_on_a_new_body_touches_no_new_page(scene):
     faults = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt - before
     assert engine.stats.impacts_played == len(bodies)
     assert faults == 0
+
+
+def test_a_stop_fade_asked_while_the_callback_mixes_starts_with_a_later_block():
+    # the controlling thread asks for the stop fade while the callback mixes blocks back to
+    # back (the native callback, ctypes releases the GIL): each time, a block started after
+    # the ask has started the fade. The callback alone writes the fade's position; one
+    # written from outside while a block ran was overwritten by the block's own at its end,
+    # and stop() waited on a fade that never began (a lost write: almost every time here)
+    import threading
+    import time
+
+    from synth.live import native
+    from synth.live import state as st
+    from synth.live.engine import ask_fade
+
+    engine = synth.Engine(samplerate=FS, blocksize=256)
+    ctl = engine._native.ctl
+    out = np.empty((FS, engine.channels), dtype=np.float32)  # long blocks: asked in one
+    for trial in range(20):
+        ctl[st.FADE_AT], ctl[st.FADE_ASKED] = -1, 0
+        blocks, stop = [0], threading.Event()
+
+        def callback(blocks=blocks, stop=stop):
+            while not stop.is_set():
+                native.mix_engine(ctl, out)
+                blocks[0] += 1
+
+        thread = threading.Thread(target=callback)
+        thread.start()
+        while blocks[0] < 1:
+            time.sleep(0.0002)
+        ask_fade(ctl)
+        asked = blocks[0]
+        while blocks[0] < asked + 2:  # the block under way, then one started after the ask
+            time.sleep(0.0002)
+        stop.set()
+        thread.join()
+        assert ctl[st.FADE_AT] >= 0, trial

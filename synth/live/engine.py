@@ -428,7 +428,7 @@ class Engine:
         times[st.NOMINAL_LATENCY] = times[st.LEAD] = float(stream.latency)
         times[st.END_TIME] = st.monotonic()
         times[st.LAST_ENTRY] = 0.0  # the time stopped is not a gap
-        ctl[[st.FADE_AT, st.SEQ]] = (-1, 0)
+        ctl[[st.FADE_AT, st.FADE_ASKED, st.SEQ]] = (-1, 0, 0)
         self._stream = stream
         # closes the stream if the engine is collected while it runs (the closer keeps the
         # arrays whose addresses the stream holds)
@@ -450,7 +450,7 @@ class Engine:
         ctl = self._native.ctl
         length = int(ctl[st.FADE_LENGTH])
         patience = t + length / self.samplerate
-        ctl[st.FADE_AT] = 0
+        ask_fade(ctl)
         if self.paused and self._native.times[st.PAUSE_LEVEL] <= 0.0:
             left = patience  # silent already
         else:
@@ -467,7 +467,7 @@ class Engine:
             )
             return
         self._state = "idle"
-        ctl[[st.FADE_AT, st.PAUSE]] = (-1, 0)  # a pause ends with the stream
+        ctl[[st.FADE_AT, st.FADE_ASKED, st.PAUSE]] = (-1, 0, 0)  # a pause ends with the stream
         self._native.times[st.PAUSE_LEVEL] = 1.0
         for body in self._bodies:
             body._apply_silence()
@@ -663,15 +663,31 @@ def _open_stream(sd, state, callback: str, **settings):
     )  # fmt: skip
 
 
+def ask_fade(ctl) -> None:
+    """Ask the callback for the stop fade from its next block on. The callback alone writes
+    the fade's position: a position written here while a block runs would be overwritten by
+    the block's own at its end, and the fade never start."""
+    ctl[st.FADE_ASKED] = 1
+
+
 def _await_fade(ctl, length: int, patience: float) -> float:
     """Wait until the stop fade (``length`` frames) has played, or the callback has not come
     for ``patience`` s; returns the time left of it, s. A look more than ``HELD_UP`` s after
     the last (this thread, or the whole process, was held up) starts the count anew: the
-    callback had no fair chance to come meanwhile."""
+    callback had no fair chance to come meanwhile. The wait also ends once the stream has
+    played the fade's length and two of the most frames seen between two looks (the block
+    under way when asked, the one the fade ends in) without its end: it never waits on a
+    stream that plays on."""
     seen, last = int(ctl[st.CALLBACKS]), time.monotonic()
     deadline = last + patience
+    asked = frame = int(ctl[st.FRAME])
+    block = 0
     while ctl[st.FADE_AT] < length:
         now, callbacks = time.monotonic(), int(ctl[st.CALLBACKS])
+        if callbacks != seen:
+            block, frame = max(block, int(ctl[st.FRAME]) - frame), int(ctl[st.FRAME])
+            if frame - asked > length + 2 * block:
+                break
         if callbacks != seen or now - last > HELD_UP:
             seen, deadline = callbacks, now + patience
         elif now >= deadline:

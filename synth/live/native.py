@@ -165,6 +165,8 @@ def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames into ``out[row:]`` (channel ``c``: ``mix[0] + mix[c +
     1]``, cleared): fades, master gain, meters, limiter, clipper, recording."""
     channels, pos, length = out.shape[1], ctl[st.FADE_AT], ctl[st.FADE_LENGTH]
+    if pos < 0 and ctl[st.FADE_ASKED] != 0:
+        pos = 0  # the stop fade asked for starts with this block
     level, level_step = times[st.PAUSE_LEVEL], 1.0 / length
     target = 0.0 if ctl[st.PAUSE] != 0 else 1.0
     if pos == 0:
