@@ -30,13 +30,14 @@ from synth.live.voice import MAX_VOICES, STEAL_FADE, check_int, closed
 from synth.sound.modal_bank import PULSE_POINTS
 
 #: ``ctl`` fields (int64): the clock (next frame), the stop fade (position, length, first
-#: frame; written by the callback only), bodies counted and room, channels, mixing piece (frames), callbacks and PortAudio's
-#: under/overflows, samples clipped, the anchor's sequence number (odd while written),
-#: recording (room, written), addresses of ``times``, the directory, mix (CHANNELS + 1 rows:
-#: the common bus, then each channel's), scratch, recording, flags (clip), the event ring
-#: (address, length), pause and limit flags, the limiter's arrays, the transform budget's
-#: figures and shares, the rolling block's address (0: none), the stop fade asked for (1; written
-#: by the controlling thread only: a field both threads wrote could lose a write).
+#: frame; written by the callback only), bodies counted and room, channels, mixing piece
+#: (frames), callbacks and PortAudio's under/overflows, samples clipped, the anchor's sequence
+#: number (odd while written), recording (room, written), addresses of ``times``, the
+#: directory, mix (CHANNELS + 1 rows: the common bus, then each channel's), scratch,
+#: recording, flags (clip), the event ring (address, length), pause and limit flags, the
+#: limiter's arrays, the transform budget's figures and shares, the rolling block's address
+#: (0: none), the stop fade asked for (1; written by the controlling thread only: a field both
+#: threads wrote could lose a write).
 (
     FRAME, FADE_AT, FADE_LENGTH, FADE_FRAME, N_BODIES, MAX_BODIES, CHANNELS, MIX_CAP,
     CALLBACKS, UNDERFLOWS, OVERFLOWS, CLIPPED, SEQ, RECORD_FRAMES, RECORDED, TIMES, DIRECTORY,
