@@ -1642,39 +1642,83 @@ def test_a_first_hit_on_a_new_body_touches_no_new_page(scene):
     assert faults == 0
 
 
-def test_a_stop_fade_asked_while_the_callback_mixes_starts_with_a_later_block():
-    # the controlling thread asks for the stop fade while the callback mixes blocks back to
-    # back (the native callback, ctypes releases the GIL): each time, a block started after
-    # the ask has started the fade. The callback alone writes the fade's position; one
-    # written from outside while a block ran was overwritten by the block's own at its end,
-    # and stop() waited on a fade that never began (a lost write: almost every time here)
-    import threading
-    import time
+class _BackToBack:
+    """The native callback mixing blocks of ``frames`` into an engine's state back to back on
+    another thread (ctypes releases the GIL), as a stream's would: :meth:`after_next` waits
+    until a block started after the call has been mixed."""
 
-    from synth.live import native
+    def __init__(self, engine, frames: int):
+        import threading
+
+        from synth.live import native
+
+        self.blocks, self._stop = 0, threading.Event()
+        out = np.empty((frames, engine.channels), dtype=np.float32)
+
+        def mix():
+            while not self._stop.is_set():
+                native.mix_engine(engine._native.ctl, out)
+                self.blocks += 1
+
+        self._thread = threading.Thread(target=mix)
+
+    def __enter__(self):
+        self._thread.start()
+        self._wait_for(1)
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+
+    def _wait_for(self, blocks: int) -> None:
+        import time
+
+        while self.blocks < blocks:
+            time.sleep(0.0002)
+
+    def after_next(self) -> None:
+        self._wait_for(self.blocks + 2)  # the block under way, then one started after
+
+
+def test_a_stop_fade_asked_while_the_callback_mixes_starts_with_a_later_block():
+    # the controlling thread asks for the stop fade while the callback mixes long blocks back
+    # to back: each time, a block started after the ask has started the fade. The callback
+    # alone writes the fade's position; one written from outside while a block ran was
+    # overwritten by the block's own at its end, and stop() waited on a fade that never
+    # began (a lost write: almost every time here)
     from synth.live import state as st
     from synth.live.engine import ask_fade
 
     engine = synth.Engine(samplerate=FS, blocksize=256)
     ctl = engine._native.ctl
-    out = np.empty((FS, engine.channels), dtype=np.float32)  # long blocks: asked in one
     for trial in range(20):
         ctl[st.FADE_AT], ctl[st.FADE_ASKED] = -1, 0
-        blocks, stop = [0], threading.Event()
-
-        def callback(blocks=blocks, stop=stop):
-            while not stop.is_set():
-                native.mix_engine(ctl, out)
-                blocks[0] += 1
-
-        thread = threading.Thread(target=callback)
-        thread.start()
-        while blocks[0] < 1:
-            time.sleep(0.0002)
-        ask_fade(ctl)
-        asked = blocks[0]
-        while blocks[0] < asked + 2:  # the block under way, then one started after the ask
-            time.sleep(0.0002)
-        stop.set()
-        thread.join()
+        with _BackToBack(engine, FS) as callback:
+            ask_fade(ctl)
+            callback.after_next()
         assert ctl[st.FADE_AT] >= 0, trial
+
+
+def test_a_meter_reset_while_the_callback_mixes_takes_effect():
+    # reset_meter()'s ask while the callback mixes long silent blocks back to back: a block
+    # started after it has restarted the bus' peaks and the limiter's least gain (a reset
+    # written from outside while a block ran was overwritten by the block's figures, kept at
+    # the old peak)
+    from synth.live import limiter
+    from synth.live import state as st
+    from synth.live.engine import ask_meter_reset
+
+    engine = synth.Engine(samplerate=FS, blocksize=256, limiter=True)
+    times, floats = engine._native.times, engine._native.limiter.floats
+    for trial in range(20):
+        times[[st.PEAK, st.OUT_PEAK]], floats[limiter.F_MIN_GAIN] = 0.5, 0.5  # an old loud part
+        with _BackToBack(engine, FS) as callback:
+            ask_meter_reset(engine._native.ctl)
+            callback.after_next()
+        assert times[st.PEAK] == 0.0 and times[st.OUT_PEAK] == 0.0, trial
+        assert floats[limiter.F_MIN_GAIN] == 1.0, trial
+    engine.process(256)  # the engine's own use of its state is as before
+    times[st.PEAK] = 0.5
+    engine.reset_meter()  # without a stream: at once
+    assert engine.stats.peak == 0.0

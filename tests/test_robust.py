@@ -308,6 +308,38 @@ def test_sigterm_during_the_write_unwinds_and_cleans(capsys, tmp_path, monkeypat
     assert out.read_bytes() == b"precious" and leftovers(tmp_path) == []
 
 
+def test_a_sigterm_a_finalizer_swallows_still_ends_the_command(capsys, tmp_path, monkeypatch):
+    # SIGTERM's handler runs wherever the main thread is; in a weakref callback (numba's type
+    # cache has them) Python ignores the handler's exception and prints it: the command still
+    # ends as terminated, without a traceback, and leaves no partial file
+    import weakref
+
+    import soundfile
+
+    real_write = soundfile.write
+
+    class Held:
+        pass
+
+    def killed(_):
+        os.kill(os.getpid(), signal.SIGTERM)
+        sum(range(10))  # the handler runs here, in the callback
+
+    def write_while_a_callback_is_killed(file, data, *a, **kw):
+        held = Held()
+        ref = weakref.ref(held, killed)
+        del held
+        assert ref() is None
+        real_write(file, data, *a, **kw)
+
+    monkeypatch.setattr(soundfile, "write", write_while_a_callback_is_killed)
+    out = tmp_path / "x.wav"
+    code, _, err = run(capsys, "render", "default", "-o", out, "--samplerate", 8000)
+    assert code == 128 + signal.SIGTERM and "SIGTERM" in err
+    assert "Traceback" not in err and "Exception ignored" not in err, err
+    assert leftovers(tmp_path) == []
+
+
 def test_stale_temporaries_of_dead_writers_are_removed(tmp_path):
     dead = subprocess.run(
         [sys.executable, "-c", "import os; print(os.getpid())"],

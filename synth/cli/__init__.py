@@ -6,6 +6,7 @@ stderr, status 2); the subcommands live in the modules of their areas.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 
 from synth.cli.bank import add_bank_gain_parser, add_bank_parser
@@ -42,6 +43,28 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+@contextlib.contextmanager
+def _swallowed_terminations():
+    """A list that receives each :class:`Terminated` a finalizer or weakref callback swallowed:
+    SIGTERM's handler runs wherever the main thread is, and Python ignores (and prints) an
+    exception raised in those (``sys.unraisablehook``); the command is ended by it once its
+    work returns, rather than run on as if never asked to stop."""
+    swallowed: list[Terminated] = []
+    previous = sys.unraisablehook
+
+    def hook(unraisable):
+        if isinstance(unraisable.exc_value, Terminated):
+            swallowed.append(unraisable.exc_value)
+        else:
+            previous(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield swallowed
+    finally:
+        sys.unraisablehook = previous
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """A warning as one line of the command's own, without the engine's source line."""
     print(f"synth: warning: {message}", file=sys.stderr if file is None else file)
@@ -61,9 +84,12 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _swallowed_terminations() as swallowed:
             warnings.showwarning = _show_warning
-            return args.func(args)
+            status = args.func(args)
+        if swallowed:
+            raise swallowed[0]
+        return status
     except SynthError as exc:
         print(f"synth: error: {exc}", file=sys.stderr)
         return 2

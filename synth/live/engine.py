@@ -311,10 +311,12 @@ class Engine:
         return sum(grid.nbytes for grid in list(self._grids.values()))
 
     def reset_meter(self) -> None:
-        """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
-        self._native.times[[st.PEAK, st.OUT_PEAK]] = 0.0
-        if self._native.limiter is not None:
-            self._native.limiter.reset_meter()
+        """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) and the
+        limiter's anew: from the next block while the stream runs (the callback alone writes
+        them then), at once without it."""
+        ask_meter_reset(self._native.ctl)
+        if not self.running:
+            native.restart_meters(self._native.ctl, self._native.times)
 
     def pause(self) -> None:
         """Fade out over ``fade`` s, then hold the clock and every voice until :meth:`resume`."""
@@ -668,6 +670,12 @@ def ask_fade(ctl) -> None:
     the fade's position: a position written here while a block runs would be overwritten by
     the block's own at its end, and the fade never start."""
     ctl[st.FADE_ASKED] = 1
+
+
+def ask_meter_reset(ctl) -> None:
+    """Ask the callback to restart the meters at its next block's start
+    (:func:`~synth.live.native.restart_meters`)."""
+    ctl[st.METER_ASKED] += 1
 
 
 def _await_fade(ctl, length: int, patience: float) -> float:

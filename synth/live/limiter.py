@@ -93,11 +93,6 @@ class LimiterState:
     def arrays(self) -> tuple:
         return self.ints, self.floats, self.taps, self.x, self.r, self.m
 
-    def reset_meter(self) -> None:
-        """Start the gain reduction's meter (smallest gain, active frames) anew."""
-        self.ints[I_ACTIVE] = 0
-        self.floats[F_MIN_GAIN] = 1.0
-
     @property
     def delay(self) -> int:
         return int(self.ints[I_DELAY])
@@ -136,6 +131,13 @@ def _required_gain(ints, floats, taps, x, q):
     if peak > ceiling:
         return ceiling / peak
     return 1.0
+
+
+@compiled(nogil=True, inline="always")
+def restart_meter(ints, floats):  # pragma: no cover - compiled
+    """Start the gain reduction's meter (smallest gain, active frames) anew."""
+    ints[I_ACTIVE] = 0
+    floats[F_MIN_GAIN] = 1.0
 
 
 @compiled(nogil=True, inline="always")

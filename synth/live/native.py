@@ -161,9 +161,29 @@ def _limiter(ctl, channels):
 
 
 @compiled(nogil=True)
+def restart_meters(ctl, times):  # pragma: no cover - compiled
+    """The meters' restart :meth:`~synth.live.engine.Engine.reset_meter` asked for (``ctl``'s
+    resets asked ahead of those made): the bus' peaks and the limiter's gain reduction. Run
+    by the callback at a block's start, which alone writes the meters while it runs (a reset
+    written from outside while a block ran was overwritten by the block's own figures)."""
+    asked = ctl[st.METER_ASKED]
+    if asked == ctl[st.METER_DONE]:
+        return
+    times[st.PEAK] = 0.0
+    times[st.OUT_PEAK] = 0.0
+    if ctl[st.LIMIT] != 0:
+        limiter.restart_meter(
+            st.i64_at(ctl[st.LIM_INTS], limiter.N_INTS),
+            st.f64_at(ctl[st.LIM_FLOATS], limiter.N_FLOATS),
+        )
+    ctl[st.METER_DONE] = asked
+
+
+@compiled(nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames into ``out[row:]`` (channel ``c``: ``mix[0] + mix[c +
     1]``, cleared): fades, master gain, meters, limiter, clipper, recording."""
+    restart_meters(ctl, times)
     channels, pos, length = out.shape[1], ctl[st.FADE_AT], ctl[st.FADE_LENGTH]
     if pos < 0 and ctl[st.FADE_ASKED] != 0:
         pos = 0  # the stop fade asked for starts with this block

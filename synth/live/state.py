@@ -36,15 +36,16 @@ from synth.sound.modal_bank import PULSE_POINTS
 #: directory, mix (CHANNELS + 1 rows: the common bus, then each channel's), scratch,
 #: recording, flags (clip), the event ring (address, length), pause and limit flags, the
 #: limiter's arrays, the transform budget's figures and shares, the rolling block's address
-#: (0: none), the stop fade asked for (1; written by the controlling thread only: a field both
-#: threads wrote could lose a write).
+#: (0: none), the stop fade asked for (1) and the meter resets asked for (a count; both written
+#: by the controlling thread only: a field both threads wrote could lose a write), the meter
+#: resets made (the callback's).
 (
     FRAME, FADE_AT, FADE_LENGTH, FADE_FRAME, N_BODIES, MAX_BODIES, CHANNELS, MIX_CAP,
     CALLBACKS, UNDERFLOWS, OVERFLOWS, CLIPPED, SEQ, RECORD_FRAMES, RECORDED, TIMES, DIRECTORY,
     MIX, SCRATCH, RECORD, CLIP, EVENTS, N_EVENTS, PAUSE, LIMIT, LIM_INTS, LIM_FLOATS,
     LIM_TAPS, LIM_X, LIM_R, LIM_M, TRANSFORMS_MAX, TRANSFORM_BUDGET, TRANSFORMS_DEFERRED,
-    SHARE_FROM, ALLOW, ROLLER, FADE_ASKED, N_CTL,
-) = range(39)  # fmt: skip
+    SHARE_FROM, ALLOW, ROLLER, FADE_ASKED, METER_ASKED, METER_DONE, N_CTL,
+) = range(41)  # fmt: skip
 
 #: ``times`` fields (float64): rate (Hz), nominal and last output latency (s), the anchor
 #: (a callback's first frame and its monotonic time at the device, s), the last callback's
