@@ -939,10 +939,11 @@ def test_resonator_factor_from_the_displacement_structure():
     from scipy.linalg import cholesky
 
     from synth.analysis.whitening import (
+        _border_cholesky,
         _displacement_columns,
-        _loaded_cholesky,
         _schur_cholesky,
     )
+    from synth.dsp import covariance_border
     from synth.dsp import covariance_matrix as _covariance
 
     rng = np.random.default_rng(5)
@@ -954,7 +955,7 @@ def test_resonator_factor_from_the_displacement_structure():
     p = 256
     G = _covariance(x, p)[1:, 1:]
     for load in (1e-12 * np.trace(G) / p, 1e-3 * np.trace(G) / p):
-        L = _loaded_cholesky(G, x, load)
+        L = _border_cholesky(x, covariance_border(x, p), load, np.empty(p * p))
         loaded = G + load * np.eye(p)
         assert np.max(np.abs(L @ L.T - loaded)) < 1e-12 * np.max(np.abs(loaded))
     lapack = cholesky(loaded, lower=True)

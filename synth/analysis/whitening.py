@@ -208,19 +208,12 @@ def _blas_controller():
     return ThreadpoolController()
 
 
-def _loaded_cholesky(
-    G: np.ndarray, seg: np.ndarray, load: float, space: np.ndarray | None = None
-) -> np.ndarray | None:
-    """Cholesky factor of ``G`` plus ``load`` (Schur or LAPACK), or None; ``space``: a buffer
-    of at least ``G.size`` for the Schur factor."""
-    return _factor(G[0], lambda: G, seg, load, space)
-
-
 def _border_cholesky(
     seg: np.ndarray, border: dsp.CovarianceBorder, load: float, space: np.ndarray
 ) -> np.ndarray | None:
-    """:func:`_loaded_cholesky` of the normal matrix of ``seg`` whose border is ``border``; the
-    whole matrix is formed only where LAPACK must factor it."""
+    """Cholesky factor (Schur or LAPACK, :func:`_factor`) of the normal matrix of ``seg`` whose
+    border is ``border`` plus ``load``, or None; the whole matrix is formed only where LAPACK
+    must factor it; ``space``: a buffer for the Schur factor."""
     p = border.row0.size - 1
     whole: list[np.ndarray] = []
 
