@@ -308,15 +308,9 @@ def test_sigterm_during_the_write_unwinds_and_cleans(capsys, tmp_path, monkeypat
     assert out.read_bytes() == b"precious" and leftovers(tmp_path) == []
 
 
-def test_a_sigterm_a_finalizer_swallows_still_ends_the_command(capsys, tmp_path, monkeypatch):
-    # SIGTERM's handler runs wherever the main thread is; in a weakref callback (numba's type
-    # cache has them) Python ignores the handler's exception and prints it: the command still
-    # ends as terminated, without a traceback, and leaves no partial file
+def _killed_in_a_weakref_callback():
+    # numba's type cache has such callbacks; Python ignores (and prints) their exceptions
     import weakref
-
-    import soundfile
-
-    real_write = soundfile.write
 
     class Held:
         pass
@@ -325,19 +319,47 @@ def test_a_sigterm_a_finalizer_swallows_still_ends_the_command(capsys, tmp_path,
         os.kill(os.getpid(), signal.SIGTERM)
         sum(range(10))  # the handler runs here, in the callback
 
-    def write_while_a_callback_is_killed(file, data, *a, **kw):
-        held = Held()
-        ref = weakref.ref(held, killed)
-        del held
-        assert ref() is None
+    held = Held()
+    ref = weakref.ref(held, killed)
+    del held
+    assert ref() is None
+
+
+def _killed_where_a_library_swallows_everything():
+    try:
+        os.kill(os.getpid(), signal.SIGTERM)
+        sum(range(10))  # the handler runs here
+    except BaseException:  # noqa: BLE001, S110 - a library that catches every exception
+        pass
+
+
+@pytest.mark.parametrize(
+    "swallowed", [_killed_in_a_weakref_callback, _killed_where_a_library_swallows_everything]
+)
+def test_a_swallowed_sigterm_still_ends_the_command_and_keeps_the_output(
+    capsys, tmp_path, monkeypatch, swallowed
+):
+    # SIGTERM's handler runs wherever the main thread is; where its exception is swallowed
+    # the work goes on, but the command ends as terminated, without a traceback, and neither
+    # replaces the existing output nor leaves a partial file
+    import soundfile
+
+    real_write = soundfile.write
+
+    def write_after_a_swallowed_sigterm(file, data, *a, **kw):
+        swallowed()
         real_write(file, data, *a, **kw)
 
-    monkeypatch.setattr(soundfile, "write", write_while_a_callback_is_killed)
+    monkeypatch.setattr(soundfile, "write", write_after_a_swallowed_sigterm)
     out = tmp_path / "x.wav"
+    out.write_bytes(b"precious")
     code, _, err = run(capsys, "render", "default", "-o", out, "--samplerate", 8000)
     assert code == 128 + signal.SIGTERM and "SIGTERM" in err
     assert "Traceback" not in err and "Exception ignored" not in err, err
-    assert leftovers(tmp_path) == []
+    assert out.read_bytes() == b"precious" and leftovers(tmp_path) == []
+    monkeypatch.undo()
+    code, _, _ = run(capsys, "render", "default", "-o", out, "--samplerate", 8000)
+    assert code == 0 and out.read_bytes() != b"precious"  # the next command commits again
 
 
 def test_stale_temporaries_of_dead_writers_are_removed(tmp_path):

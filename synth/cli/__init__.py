@@ -16,6 +16,7 @@ from synth.cli.play import add_play_parser
 from synth.cli.recordings import add_alter_parser, add_analyze_parser
 from synth.cli.render import add_gallery_parser, add_info_parser, add_render_parser
 from synth.errors import SynthError
+from synth.store.atomic import commits_refused_by, refuse_commits
 
 #: Each subcommand's parser, in the order of ``synth --help``.
 SUBCOMMANDS = (
@@ -40,27 +41,25 @@ class Terminated(KeyboardInterrupt):
 
 
 def _on_sigterm(signum, frame):
-    raise Terminated()
+    stop = Terminated()
+    refuse_commits(stop)  # holds where the exception below is swallowed
+    raise stop
 
 
 @contextlib.contextmanager
-def _swallowed_terminations():
-    """A list that receives each :class:`Terminated` a finalizer or weakref callback swallowed:
-    SIGTERM's handler runs wherever the main thread is, and Python ignores (and prints) an
-    exception raised in those (``sys.unraisablehook``); the command is ended by it once its
-    work returns, rather than run on as if never asked to stop."""
-    swallowed: list[Terminated] = []
+def _silent_swallowed_terminations():
+    """Keep Python from printing a :class:`Terminated` that a finalizer or weakref callback
+    swallowed (``sys.unraisablehook``): SIGTERM's handler runs wherever the main thread is.
+    The stop itself holds (:func:`synth.store.atomic.refuse_commits`)."""
     previous = sys.unraisablehook
 
     def hook(unraisable):
-        if isinstance(unraisable.exc_value, Terminated):
-            swallowed.append(unraisable.exc_value)
-        else:
+        if not isinstance(unraisable.exc_value, Terminated):
             previous(unraisable)
 
     sys.unraisablehook = hook
     try:
-        yield swallowed
+        yield
     finally:
         sys.unraisablehook = previous
 
@@ -84,11 +83,11 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        with warnings.catch_warnings(), _swallowed_terminations() as swallowed:
+        with warnings.catch_warnings(), _silent_swallowed_terminations():
             warnings.showwarning = _show_warning
             status = args.func(args)
-        if swallowed:
-            raise swallowed[0]
+        if commits_refused_by() is not None:  # a SIGTERM that some code swallowed
+            raise commits_refused_by()
         return status
     except SynthError as exc:
         print(f"synth: error: {exc}", file=sys.stderr)
@@ -114,3 +113,4 @@ def main(argv=None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        refuse_commits(None)

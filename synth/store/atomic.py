@@ -1,6 +1,7 @@
 """Atomic file writing: content written to a temporary sibling (one file system), fsynced
 and renamed onto the target (``os.replace``, atomic on POSIX and Windows), so a reader
-never sees a partial file and a failure leaves the target untouched.
+never sees a partial file and a failure leaves the target untouched. Once a stop is asked
+(:func:`refuse_commits`), no later rename happens.
 """
 
 from __future__ import annotations
@@ -20,6 +21,30 @@ from synth.errors import SynthError
 #: Prefix of the engine's temporaries, ``.synth-<pid>-<hex>.part<suffix>``: the name does
 #: not grow with the target's, and the writer's pid lets a dead writer's be removed.
 TEMPORARY_PREFIX = ".synth-"
+
+
+class _Commits:
+    """The stop that every later commit raises rather than rename (None: commits go on)."""
+
+    refused_by: BaseException | None = None
+
+
+def refuse_commits(stop: BaseException | None) -> None:
+    """From now on raise ``stop`` where a finished temporary would be renamed onto its target
+    (``None`` allows commits again). A command asked to stop (SIGTERM) sets it, so the stop
+    holds even where Python swallowed the exception that carried it (a finalizer, a weakref
+    callback): every target keeps its old content."""
+    _Commits.refused_by = stop
+
+
+def commits_refused_by() -> BaseException | None:
+    """The stop given to :func:`refuse_commits`, or None."""
+    return _Commits.refused_by
+
+
+def _allow_commit() -> None:
+    if _Commits.refused_by is not None:
+        raise _Commits.refused_by
 
 
 def temporary_name(suffix: str) -> str:
@@ -104,6 +129,7 @@ def write_atomically(
     with temporary_sibling(path, error) as tmp:
         write(tmp)
         _fsync(tmp)
+        _allow_commit()
         os.replace(tmp, path)
     return path
 
@@ -117,6 +143,7 @@ def write_once(path: str | os.PathLike, data: bytes) -> bool:
     with temporary_sibling(path) as tmp:
         tmp.write_bytes(data)
         _fsync(tmp)
+        _allow_commit()
         try:
             os.link(tmp, path)
         except FileExistsError:
@@ -171,6 +198,7 @@ class Outputs(contextlib.AbstractContextManager):
     def __exit__(self, kind, exc, tb):
         try:
             if kind is None:
+                _allow_commit()
                 for field, tmp in self.temporaries.items():
                     os.replace(tmp, self.paths[field])
             elif exc is not None:
