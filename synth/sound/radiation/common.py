@@ -1,12 +1,6 @@
-"""What the rules of the Rayleigh integral share: their result, the argument checks,
-Gauss-Legendre rules, the numba kernel of the sums (run without the GIL, shared between
-worker threads) and the convergence test (:func:`refine`).
-
-The first rule is checked by one with 1.25 times the points per axis, refined again (up to
-six times) while any mode fails ``|H_fine - H_coarse| <= tol * max(|H_fine|, 1e-4 S_k)``,
-``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA >= |H_k|`` the in-phase gain (the floor
-keeps round-off from dominating modes that cancel below -80 dB).
-"""
+"""What the rules of the Rayleigh integral share: their result, argument checks, Gauss-Legendre
+rules, the numba kernel of the sums (no GIL) and the convergence test (:func:`refine`,
+docs/physics.md, "Radiation")."""
 
 from __future__ import annotations
 
