@@ -256,8 +256,9 @@ def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
 
 @compiled(inline="always", sums=True, nogil=True)
 def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):  # noqa: PLR0913
-    """One sample of the module docstring's recursion for the modes ``zr + i zi`` (in place)
-    driven at ``wa row_a + wb row_b`` (N): what the listener (``lr + i li``) hears at its start."""
+    """One sample of the recursion (docs/rolling.md, "The force as a signal") for the modes
+    ``zr + i zi`` (in place) driven at ``wa row_a + wb row_b`` (N): what the listener
+    (``lr + i li``) hears at its start."""
     acc = 0.0
     for k in range(er.shape[0]):
         acc += lr[k] * zr[k] - li[k] * zi[k]
@@ -356,10 +357,11 @@ def _drive(  # noqa: PLR0913
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
     previous, out,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """The recursion of :func:`drive_modes` for the heard modes ``w_k = l_k zeta_k`` (``wr + i wi``,
-    in place; ``sum_k Re w_k`` into ``out``): ``w_k <- e_k w_k + g_k b_k F``, ``b_k`` interpolated
-    in ``table``; ``previous`` the force before (N), ``direct`` the direct term summed per row.
-    Four samples rung per pass, each with a single pass' bits."""
+    """The recursion (docs/rolling.md, "The force as a signal") for the heard modes
+    ``w_k = l_k zeta_k`` (``wr + i wi``, in place; ``sum_k Re w_k`` into ``out``):
+    ``w_k <- e_k w_k + g_k b_k F``, ``b_k`` interpolated in ``table``; ``previous`` the force
+    before (N), ``direct`` the direct term summed per row. Four samples rung per pass, each with
+    a single pass' bits."""
     K = er.shape[0]
     rows = table.shape[0]
     n = force.shape[0]

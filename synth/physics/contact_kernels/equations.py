@@ -140,7 +140,8 @@ def law_force(P, x, w, xm):
 
 @compiled()
 def rhs(P, x, w, xm):
-    """Right-hand side (x', w', I2', L') of the module docstring for the law ``P``."""
+    """Right-hand side (x', w', I2', L') of the scaled equations (docs/physics.md,
+    "Numerics") for the law ``P``."""
     f, a = law_force(P, x, w, xm)
     dx = w - P.lam * f
     return dx, P.G - f, f * f, (f - a) * dx

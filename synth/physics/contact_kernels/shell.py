@@ -24,7 +24,7 @@ SHELL_STEP_LIMIT = 200_000
 #: Absolute tolerance relative to the local one (as the power laws' ``ABSOLUTE_FACTOR``).
 SHELL_ABSOLUTE_FACTOR = 1e-6
 
-#: The dimensionless shell law (module docstring), the kernels' one argument for it.
+#: The dimensionless shell law (docs/physics.md, "Hollow balls"), the kernels' one argument for it.
 Shell = namedtuple("Shell", ("lam", "G", "rR", "xt", "rg", "a"))
 
 #: Dormand & Prince 5(4): coupling rows, the last the 5th-order weights (its stage is the next

@@ -360,11 +360,11 @@ def exp_halvings(q: np.ndarray, spread: float) -> int:
 
 
 def refine(rule, npoints, factor, scale, tol, max_points, panels, selective=False):
-    """Rules ``rule(level, active)`` (-> integrals and in-phase integrals of the modes
-    ``active``, indices) compared until every mode passes the test of the module docstring;
-    the gains are ``factor`` times the integrals, the bounds ``scale`` times theirs.
-    ``selective``: a mode that passes keeps that rule's gain and only the modes still
-    failing go on (each mode's test is its own: the same bound)."""
+    """Rules ``rule(level, active)`` (-> integrals and in-phase integrals of the modes ``active``,
+    indices) compared until every mode passes the test of docs/physics.md, "The quadrature of
+    the rules"; the gains are ``factor`` times the integrals, the bounds ``scale`` times theirs.
+    ``selective``: a mode that passes keeps that rule's gain and only the modes still failing go
+    on (each mode's test is its own: the same bound)."""
     m = factor.size
     active = np.arange(m)
     coarse, _ = rule(0, active)
