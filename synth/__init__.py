@@ -1,12 +1,6 @@
-"""Physically based synthesis of bouncing and impact sounds.
-
-A ball is dropped on a plate; every impact is computed from the materials and sizes
-(Hertz contact against the plate's mechanical impedance, with gravity), strung together by
-a bounce scheduler, and heard through a modal model of the finite plate. SI units.
-
-Every public name is imported on first use (PEP 562): ``import synth`` loads no numerical
-library, and a render loads neither the analysis, the live engine nor the sound banks.
-"""
+"""Physically based synthesis of bouncing and impact sounds, in SI units: Hertz contact against
+the plate's impedance, a bounce scheduler and a modal model of the finite plate. Every public
+name is imported on first use (PEP 562), so ``import synth`` loads no numerical library."""
 
 from synth import jitcache  # noqa: F401  (first: picks numba's cache folder before numba loads)
 from synth.errors import ParameterError, SynthError  # noqa: F401  (in __all__)

@@ -1,12 +1,8 @@
-"""Validation helpers shared by every public constructor and function, and the options
-declared once on them.
+"""Validation helpers shared by every public constructor, and options declared once on them.
 
-A helper takes the dotted name used in messages, the value and the unit, and returns the
-value converted; nothing is clamped: ``plate.thickness=-0.002 must be > 0 (metres)``. An
-option (:class:`Option`) is a frozen dataclass's field with its unit, values allowed, doc
-and check, from which front ends read signatures, docstrings and flags; constructing the
-dataclass is the one check, and a misspelt name a ``TypeError`` naming the nearest option.
-"""
+A helper takes the dotted name, the value and the unit, and returns the value converted or
+raises, never clamps: ``plate.thickness=-0.002 must be > 0 (metres)``. An :class:`Option` is a
+frozen dataclass's field with its unit, values allowed, doc and check, read by every front end."""
 
 from __future__ import annotations
 

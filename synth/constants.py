@@ -1,8 +1,5 @@
-"""Physical constants shared by the physics and the sound (SI units), and the defaults of
-the bounce series and the pulse grid shared with the render options. Air is dry, at 20 degC
-and 101.325 kPa: the thesis' measurements (docs/physics.md, References) and ISO 9613-1's
-reference atmosphere.
-"""
+"""Physical constants (SI units) and defaults shared by the physics, the sound and the render
+options. Air is dry, at 20 degC and 101.325 kPa (ISO 9613-1's reference atmosphere)."""
 
 from __future__ import annotations
 

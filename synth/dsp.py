@@ -1,11 +1,6 @@
-"""Signal processing shared by the analysis of recordings and their alteration: linear
-prediction by the autocorrelation method (Levinson recursion) and the covariance method's
-normal equations (Makhoul 1975, "Linear prediction: a tutorial review", Proc. IEEE 63, 561,
-sections 3.1.1 and 3.1.2); the Schur-Cohn stability test by the step-down recursion (Markel
-and Gray, Linear Prediction of Speech, 1976, section 5.3); a recording's noise floor from
-its quietest frames. Signals are float64 arrays in any units; times are in seconds, and a
-function that converts one takes ``samplerate`` (Hz).
-"""
+"""Signal processing shared by the analysis and alteration of recordings: linear prediction by the
+autocorrelation and covariance methods (Makhoul 1975, Proc. IEEE 63, 561), the Schur-Cohn test
+(Markel & Gray 1976, 5.3) and a noise floor. Signals in any units; times in s, rates in Hz."""
 
 from __future__ import annotations
 
@@ -43,14 +38,9 @@ def levinson_predictor(r: np.ndarray) -> np.ndarray:
 
 
 def autocorrelation(x: np.ndarray, order: int, parts: dict | None = None) -> np.ndarray:
-    """``r[d] = sum_n x[n] x[n + d]`` for ``d = 0..order`` (the signal taken as zero outside
-    its samples), summed over blocks by FFT (exact: each block is correlated with itself
-    extended by ``order`` samples).
-
-    ``parts``: the blocks' terms of an earlier call on a signal of which ``x`` is the start
-    (the same samples from the same first one), keyed by ``(order, block start)``; the terms
-    of the blocks that lie with their extension inside ``x`` are taken from it (the same
-    values, summed in the same order), and those computed here are added to it."""
+    """``r[d] = sum_n x[n] x[n + d]`` for ``d = 0..order`` (zero outside the signal), summed over
+    blocks by FFT. ``parts``: the blocks' terms of an earlier call on a signal that ``x`` starts,
+    keyed by ``(order, block start)``; reused where they lie inside ``x``, new ones added."""
     from scipy.fft import irfft, next_fast_len, rfft
 
     block = max(4 * order, 1 << 16)
@@ -76,14 +66,10 @@ def autocorrelation_predictor(x: np.ndarray, order: int) -> np.ndarray:
 
 
 def covariance_matrix(x: np.ndarray, order: int, blocks=None) -> np.ndarray:
-    """Normal equations of the covariance method: ``C[i, j] = sum_n x[n-i] x[n-j]`` for
-    ``i, j = 0..order``, the sum over the targets ``n`` of ``blocks`` (pairs ``[n1, n2)``
-    with ``n1 >= order``; default the whole signal, ``[order, x.size)``).
-
-    Row 0 of each block from its autocorrelation by FFT less the first ``order`` products;
-    then ``C[i+1, j+1] = C[i, j] + sum_b (x[n1-1-i] x[n1-1-j] - x[n2-1-i] x[n2-1-j])``:
-    O(N log N + p^2) instead of O(N p^2).
-    """
+    """Normal equations of the covariance method, ``C[i, j] = sum_n x[n-i] x[n-j]`` for
+    ``i, j = 0..order`` over the targets of ``blocks`` (pairs ``[n1, n2)``, ``n1 >= order``;
+    default ``[order, x.size)``): row 0 by FFT, then each diagonal by a recurrence,
+    O(N log N + p^2)."""
     p = int(order)
     x = np.ascontiguousarray(x, dtype=float)
     if blocks is None:

@@ -1,9 +1,5 @@
-"""The engine's exception tree.
-
-``ParameterError`` (bad input) is also a ``ValueError``. Numerical trouble inside a solver
-is never raised: it is reported in the solver's result (``success``, ``status``,
-``message``), as scipy's ``solve_ivp`` does.
-"""
+"""The engine's exceptions. ``ParameterError`` (bad input) is also a ``ValueError``; numerical
+trouble inside a solver is reported in its result (``success``, ``status``), never raised."""
 
 
 class SynthError(Exception):

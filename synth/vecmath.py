@@ -1,15 +1,6 @@
-"""Elementary functions for numba kernels whose loops over modes must vectorise.
-
-libm's ``exp``, ``cos`` and ``sin`` are calls that stop a loop from vectorising; these are
-plain polynomials (no call, no table), so a loop over thousands of modes runs in the
-vector units. Accuracy: :func:`cis` within a few ulp for ``|theta| < 2^19 pi`` (fdlibm's
-kernels after a Cody-Waite reduction by ``pi/2``); :func:`exp_small` within an ulp or two
-on ``|u| <= 1`` (Taylor series to ``u^18``); a larger argument is scaled by
-``2^-J`` (:func:`halvings_for`) and the result squared ``J`` times, within about ``2^J``
-ulp (the kernels square in loops of their own, so that each vectorises). They are
-compiled without fast-math flags (:data:`synth.compilation.FASTMATH`): the argument
-reductions need their operations in their order.
-"""
+"""Elementary functions for numba kernels whose loops over modes must vectorise: plain polynomials
+(no libm call). :func:`cis` is within a few ulp for ``|theta| < 2^19 pi``, :func:`exp_small`
+within an ulp or two on ``|u| <= 1``; compiled without fast-math, so reductions keep their order."""
 
 from __future__ import annotations
 

@@ -12,6 +12,7 @@ from synth.physics import impedance
 from validation.modal import (
     MODAL_IMPEDANCE_BAND,
     THESIS_EDGE_RESTITUTION,
+    band_impedance,
     modal_critical_distance,
 )
 from validation.rows import (
@@ -109,7 +110,7 @@ def thesis_transverse_shear_rows(pairs=None) -> list:
             thesis_row(
                 f"impedance, transverse-shear plate, 18 mm, {where}",
                 "N s/m",
-                point.band_impedance(lo, hi),
+                band_impedance(point, lo, hi),
                 model,
                 measured,
                 f"engine: 1 / <Re Y> over {lo / 1e3:g}-{hi / 1e3:g} kHz",

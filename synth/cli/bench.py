@@ -1,9 +1,5 @@
-"""The subcommands timing the engine: ``warmup`` (every kernel compiled ahead of time) and
-``bench``: the benchmarks and validation studies that print the figures of docs/, not
-installed but found in the source checkout around the current folder (last on
-``sys.path``, so ``synth`` stays the installed package), its command line handed to
-``benchmarks.cli.main``.
-"""
+"""The ``warmup`` and ``bench`` subcommands: kernels compiled ahead of time, and the benchmarks of
+the source checkout around the current folder (``benchmarks.cli.main``), never installed."""
 
 from __future__ import annotations
 

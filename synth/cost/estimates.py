@@ -37,14 +37,10 @@ def bending_wavenumber(plate, f_max: float) -> float:
 
 
 def modal_count(plate, max_frequency: float) -> int:
-    """Modes of ``plate`` below ``max_frequency`` (Hz): the wavenumber lattice of the
-    rectangle, ``(m pi / a)^2 + (n pi / b)^2 <= k^2`` with ``k^4 = omega^2 rho h / D``,
-    counted exactly (``m, n >= 1`` for simply supported edges, where it is the exact count).
-    Its area term is the asymptotic modal density ``S omega / (4 pi) sqrt(rho h / D)``
-    (Cremer, Heckl & Petersson, eq. 5.118); the lattice adds the edges' share, which
-    dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
-    Clamped edges are counted as simply supported (their wavenumbers lie half a step
-    higher). Free edges: :func:`_free_modal_count`."""
+    """Modes of ``plate`` below ``max_frequency`` (Hz): the wavenumber lattice
+    ``(m pi / a)^2 + (n pi / b)^2 <= k^2``, ``k^4 = omega^2 rho h / D``, counted exactly (exact for
+    simply supported edges; clamped counted as such, free by :func:`_free_modal_count`); it adds
+    the edges' share to the modal density (Cremer, Heckl & Petersson, eq. 5.118)."""
     k = bending_wavenumber(plate, max_frequency)
     if plate.boundary == "free":
         return _free_modal_count(plate, k)

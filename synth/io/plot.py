@@ -1,9 +1,5 @@
-"""Pictures of a render: waveform, spectrogram and force pulses in one PNG.
-
-matplotlib is optional (``pip install 'impact-synth[plot]'``) and imported only
-inside :func:`plot_render`; the figure is drawn by the Agg canvas, so no display
-is needed, and no pyplot state is touched.
-"""
+"""Pictures of a render: waveform, spectrogram and force pulses in one PNG, drawn by the Agg canvas
+(no display, no pyplot state); matplotlib is optional (``pip install 'impact-synth[plot]'``)."""
 
 from __future__ import annotations
 

@@ -1,11 +1,5 @@
-"""Presets: scenes described in TOML files (docs/cli.md, "Preset files").
-
-The keys of ``[ball]``, ``[plate]``, ``[contact]`` and ``[render]`` are the fields of
-:class:`~synth.physics.scene.Ball`, :class:`~synth.physics.scene.Plate`,
-:class:`~synth.physics.scene.Contact` and :class:`synth.sound.options.RenderOptions`, so
-field, key and ``--set`` option cannot drift apart. An unknown key, a wrong type or an
-impossible scene is a :class:`PresetError` naming the file, key and value.
-"""
+"""Presets: scenes described in TOML files (docs/cli.md, "Preset files"). Their keys are the fields
+of Ball, Plate, Contact and RenderOptions; a bad key, type or scene is a :class:`PresetError`."""
 
 from __future__ import annotations
 

@@ -679,13 +679,10 @@ def ask_meter_reset(ctl) -> None:
 
 
 def _await_fade(ctl, length: int, patience: float) -> float:
-    """Wait until the stop fade (``length`` frames) has played, or the callback has not come
-    for ``patience`` s; returns the time left of it, s. A look more than ``HELD_UP`` s after
-    the last (this thread, or the whole process, was held up) starts the count anew: the
-    callback had no fair chance to come meanwhile. The wait also ends once the stream has
-    played the fade's length and two of the most frames seen between two looks (the block
-    under way when asked, the one the fade ends in) without its end: it never waits on a
-    stream that plays on."""
+    """Wait until the stop fade (``length`` frames) has played, or the callback has not come for
+    ``patience`` s; returns the time left of it, s. A look more than ``HELD_UP`` s after the last
+    starts the count anew; the wait also ends once the stream has played the fade without its
+    end, so it never waits on a stream that plays on."""
     seen, last = int(ctl[st.CALLBACKS]), time.monotonic()
     deadline = last + patience
     asked = frame = int(ctl[st.FRAME])

@@ -1,9 +1,6 @@
-"""The master bus' true-peak limiter: a look-ahead gain that keeps sample and inter-sample
-peaks (4x as ITU-R BS.1770-4 Annex 2's meter) at or below a ceiling. Each position needs
-``r(q) = min(1, ceiling / tp(q))``; the gain, a minimum of ``r`` over the reach ``R`` then a
-moving average over the attack ``A = D - 2 R`` frames, is at or below every ``r`` its output
-frame reads, and releases at most ``RELEASE_DB_PER_S``. The output is the input delayed by
-``D`` frames times the gain (bit-identical while at 1)."""
+"""The master bus' true-peak limiter (docs/live.md): a look-ahead gain that keeps sample and
+inter-sample peaks (4x, ITU-R BS.1770-4 Annex 2) at or below a ceiling; the output is the input
+delayed by ``D`` frames times the gain, bit-identical while the gain is 1."""
 
 from __future__ import annotations
 

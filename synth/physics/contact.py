@@ -1,9 +1,6 @@
-"""One impact of a ball on a plate's contact stiffness and mechanical impedance under the laws
-of docs/physics.md, "Hertz contact" (thesis eqs. 2.9-2.11, 2.34, 2.42; Hunt & Crossley 1975;
-Kuwabara & Kono 1987; Brilliantov et al. 1996) and "Hollow balls"; the outcome's pulse is
+"""One impact of a ball on a plate (docs/physics.md, "Hertz contact", "Hollow balls"); the pulse is
 sampled from the solver's dense output on first access. The kernels integrate to ``rtol *``
-:data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so that the global errors of
-restitution and contact time stay below ``rtol``."""
+:data:`TOLERANCE_SAFETY` so that restitution and contact time stay within ``rtol``."""
 
 from __future__ import annotations
 

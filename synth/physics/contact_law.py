@@ -334,11 +334,7 @@ def yield_speed(ball: Ball, plate: Plate) -> float | None:
 def plastic_restitution(speed: float, v_yield: float | None) -> float:
     """Restitution of an elastic-perfectly plastic Hertz contact at ``speed`` (m/s) with yield
     speed ``v_yield`` (m/s; None: elastic): 1 up to it, above Thornton's closed form (J. Appl.
-    Mech. 64 (1997) 383), ``r = V_y / v``,
-
-        e = (6 sqrt(3) / 5)^(1/2) (1 - r^2 / 6)^(1/2) (r / (r + 2 (6/5 - r^2 / 5)^(1/2)))^(1/4)
-
-    falling as ``v^(-1/4)`` far above (Johnson 1985, section 11.4)."""
+    Mech. 64 (1997) 383; docs/physics.md, "Yield of the contact"), falling as ``v^(-1/4)``."""
     v = checks.positive("speed", speed, "m/s")
     if v_yield is None:
         return 1.0

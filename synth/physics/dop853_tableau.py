@@ -1,9 +1,5 @@
-"""Butcher tableau of DOP853 (Dormand & Prince, order 8(5,3)) as published in Hairer, Norsett &
-Wanner, "Solving Ordinary Differential Equations I", 2nd ed., Springer 1993, II.5 and II.10, and
-their ``dop853.f``, each the shortest decimal of its float64. ``C``, ``A``: 12 stages then the 4
-extra of the order-7 dense output; ``B``: 8th-order weights (FSAL); ``E3``, ``E5``: error
-estimators; ``D``: dense output coefficients.
-"""
+"""Butcher tableau of DOP853 (Hairer, Norsett & Wanner 1993, II.5, II.10, ``dop853.f``): ``C``,
+``A`` (12 stages and 4 of the dense output), ``B``, the estimators ``E3``, ``E5`` and ``D``."""
 
 import numpy as np
 

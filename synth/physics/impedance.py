@@ -1,9 +1,5 @@
-"""Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance"):
-the infinite thin plate's ``Z_inf = 8 sqrt(D rho h)`` N s/m (thesis eq. 2.34; Cremer, Heckl &
-Petersson, "Structure-Borne Sound", 3rd ed., section 5.3), the infinite Mindlin plate's, and
-near free edges and corners the measured ratios (Eichler 1964, J. Acoust. Soc. Am. 36, 344;
-thesis Table 3.4), blended over the critical distance ``c_g tau / 2``.
-"""
+"""Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance"),
+N s/m: infinite thin and Mindlin plates, and measured ratios near free edges and corners."""
 
 from __future__ import annotations
 

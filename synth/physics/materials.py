@@ -1,11 +1,5 @@
-"""Materials: elastic constants, density and internal damping (docs/physics.md, "Materials").
-
-:data:`TABLE` is read from ``materials.toml``, every row citing its source: the thesis' Table
-3.1 and handbook tables (Cremer, Heckl & Petersson 2005, Table 4.3; Bies, Hansen & Howard
-2017, Table C.1; Hopkins 2007, Table A2; Mechel 2008; Vigran 2008; Norton & Karczub 2003;
-Ashby 2011; Leet & Ewing 1932 and Birch & Bancroft 1938). Loss factors are bending waves' at
-audio frequencies, the least certain column (Cremer et al. section 4.5.1). Woods give the
-modulus along the grain."""
+"""Materials: elastic constants, density and damping (docs/physics.md, "Materials").
+:data:`TABLE` is read from ``materials.toml``, every row citing its source (docs/materials.md)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,5 @@
 """The path of a ball released with a horizontal velocity (docs/rolling.md, "The ball's path"):
-bounces along its line, the contact point gripping at each impact (``v' = (5 v + 2 R w) / 7``;
-Garwin, Am. J. Phys. 37, 88 (1969); Cross, Am. J. Phys. 70, 1093 (2002)), then rolling slowed
-by the roughness' work and rolling resistance ``C_rr m g`` (Cross, Am. J. Phys. 84, 221 (2016))
-until it stops, leaves the plate or time runs out.
-"""
+bounces gripping at each impact, then rolling until it stops, leaves the plate or time ends."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
 """Where the finite plate's modes enter the contact, ``contact.plate = "auto"`` (docs/physics.md,
-"Plate impedance" and "Plate modes").
-
-Until a wave reflected by an edge returns, the finite plate moves as the infinite one. The
-share of the first pulse's energy above the frequency whose reflection returns within the
-contact time bounds the change of restitution (flexural group speed: Cremer, Heckl & Petersson,
-section 3.7): above :data:`TOLERANCE` the modes enter the contact."""
+"Plate impedance"): when the pulse's energy whose reflections return within the contact time
+exceeds :data:`TOLERANCE`."""
 
 from __future__ import annotations
 

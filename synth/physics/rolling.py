@@ -1,8 +1,5 @@
-"""A ball rolling at an imposed horizontal speed over a plate's rough surface (docs/rolling.md):
-vertically a free body pressed by the impacts' contact law against the profile's envelope, on a
-rigid plate or its admittance. Left out (docs/rolling.md, "Limits"): rolling resistance, the
-tilt of the contact normal, the profile's curvature in the Hertz constant, the ball's rotation.
-"""
+"""A ball rolling at an imposed horizontal speed over a plate's rough surface (docs/rolling.md),
+pressed by the contact law against the profile's envelope; its limits: docs/rolling.md."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""numba kernels of the rolling contact (docs/rolling.md, "Rolling contact"): the impact solver's
-force law, integrated by Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19 (1980);
-Hairer, Norsett & Wanner, "Solving ODEs I", II.5) with steps ending on every sample boundary;
-a flight is a parabola in closed form.
-"""
+"""numba kernels of the rolling contact (docs/rolling.md, "Rolling contact"): Dormand & Prince's
+RK5(4) with steps ending on every sample boundary; a flight is a parabola in closed form."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
 """A plate's surface along a ball's path (docs/rolling.md, "The surface"): the Matern roughness
-profile (Matern 1960; Rasmussen & Williams 2006, eqs. 4.14-4.15; Persson et al. 2005, J. Phys.:
-Condens. Matter 17, R1) and the envelope a sphere of radius ``R`` rides, ``e(s) = max_x [h(x) -
-(R - sqrt(R^2 - (x - s)^2))]``.
-"""
+profile and the envelope a sphere of radius ``R`` (m) rides."""
 
 from __future__ import annotations
 
@@ -76,14 +73,10 @@ class Profile:
 
 @dataclass(frozen=True)
 class RoughnessSpectrum:
-    """The Matern (von Karman) roughness spectrum: two-sided PSD over the wavenumber ``k`` (rad/m),
-    ``Int S dk / (2 pi) = sigma^2``,
-
-        S(k) = sigma^2 2 sqrt(pi) xi Gamma(H + 1/2) / Gamma(H) (1 + (k xi)^2)^-(H + 1/2)
-
-    with ``rms_height`` ``sigma`` and ``correlation_length`` ``xi`` in (0, 100] m
-    (:data:`MAX_ROUGHNESS_SCALE`; ``xi`` the roll-off to the power law) and ``hurst`` ``H`` in
-    (0, 1] (1: smooth, 0.5: Brownian)."""
+    """The Matern (von Karman) roughness spectrum (docs/rolling.md, "The surface"): two-sided
+    PSD over the wavenumber ``k`` (rad/m) with ``rms_height`` ``sigma`` (m),
+    ``correlation_length`` ``xi`` in (0, 100] m (:data:`MAX_ROUGHNESS_SCALE`) and ``hurst``
+    ``H`` in (0, 1] (1: smooth, 0.5: Brownian)."""
 
     rms_height: float
     correlation_length: float

@@ -1,19 +1,6 @@
 """The plate's modes driven by a rolling contact's force at a moving point (docs/rolling.md, "The
-force as a signal", "Rendering a path").
-
-A force ``F`` at the moving point ``x(t)`` drives each mode (pole ``p_k``, shape ``phi_k``, modal
-mass ``M_k``) as ``zeta_k' = p_k zeta_k + b_k F``, ``b_k = phi_k(x(t)) / M_k``; the listener hears
-``sum_k Re[output_k (-i zeta_k / omega_dk)]`` (``output_k`` as :func:`synth.sound.modal_bank.
-synthesize`; an accelerometer also the direct term ``phi_k(xp) b_k F``). The force is the contact's
-mean over each sample period, held over it, so ``zeta_k <- e^(p_k / fs) zeta_k + b_k F_j (e^(p_k /
-fs) - 1) / p_k`` is exact; the direct term at the step ``F_(j-1) -> F_j`` takes the mean of both.
-``b_k`` is tabulated along the path (:func:`path_excitation`, :data:`POINTS_PER_WAVELENGTH` rows
-per bending wavelength of the highest mode: relative error at most ``(k_b step)^2 / 8``) and
-interpolated linearly.
-
-A path (:func:`render_path_audio`): the plate is linear, so its signal is the bounces' pulses
-plus the rolling's force plus the ringing the force leaves, held at its last point.
-"""
+force as a signal", "Rendering a path"): the force is held over each sample, so each mode's step
+is exact; ``b_k = phi_k(x(t)) / M_k`` is tabulated along the path (:func:`path_excitation`)."""
 
 from __future__ import annotations
 
@@ -269,8 +256,9 @@ def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
 
 @compiled(inline="always", sums=True, nogil=True)
 def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):  # noqa: PLR0913
-    """One sample of the module docstring's recursion for the modes ``zr + i zi`` (in place)
-    driven at ``wa row_a + wb row_b`` (N): what the listener (``lr + i li``) hears at its start."""
+    """One sample of the recursion (docs/rolling.md, "The force as a signal") for the modes
+    ``zr + i zi`` (in place) driven at ``wa row_a + wb row_b`` (N): what the listener
+    (``lr + i li``) hears at its start."""
     acc = 0.0
     for k in range(er.shape[0]):
         acc += lr[k] * zr[k] - li[k] * zi[k]
@@ -369,12 +357,11 @@ def _drive(  # noqa: PLR0913
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
     previous, out,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """The module docstring's recursion for the heard modes ``w_k = l_k zeta_k`` (``wr + i wi``,
-    in place; ``sum_k Re w_k`` into ``out``): ``w_k <- e_k w_k + g_k b_k F``, ``e_k = er + i
-    ei``, ``g_k = l_k h_k = gr + i gi``, ``b_k`` interpolated in ``table``; ``previous`` the
-    force before (N), ``direct`` the direct term summed per row. Per table interval its rows'
-    gains are worked out once and four samples rung per pass (without the drive where the four
-    have no force), each with a single pass' bits."""
+    """The recursion (docs/rolling.md, "The force as a signal") for the heard modes
+    ``w_k = l_k zeta_k`` (``wr + i wi``, in place; ``sum_k Re w_k`` into ``out``):
+    ``w_k <- e_k w_k + g_k b_k F``, ``b_k`` interpolated in ``table``; ``previous`` the force
+    before (N), ``direct`` the direct term summed per row. Four samples rung per pass, each with
+    a single pass' bits."""
     K = er.shape[0]
     rows = table.shape[0]
     n = force.shape[0]

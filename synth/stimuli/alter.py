@@ -139,17 +139,14 @@ def alter_restitution(
     options: AlterOptions | None = None,
     **overrides,
 ) -> Alteration:
-    """Change the restitution of a recorded bouncing sound by ``1 - e' = k (1 - e)``
-    (module docstring).
+    """Change the restitution of a recorded bouncing sound by ``1 - e' = k (1 - e)``.
 
     ``audio`` (frames,) or (frames, channels), any units (kept), at ``samplerate`` Hz;
     ``restitution_scale`` ``k >= 0``; ``onsets`` (s): at least 3 ticks of one bounce series,
     at least 2 samples apart (default: detected by :func:`synth.analysis.analyze` with
     ``gravity``, m/s^2, on ``channel``, None: the mean; every channel is altered);
     ``options`` (:class:`AlterOptions`) and ``overrides`` of its fields by name. Raises
-    ``ParameterError`` for bad input, onsets that are not one series (a bounce time that
-    grows) or an alteration that leaves fewer than 3 ticks.
-    """
+    ``ParameterError`` for bad input, onsets that are not one series or fewer than 3 ticks left."""
     from synth.analysis.settings import audio_array
 
     o = dataclasses.replace(options or AlterOptions(), **overrides)

@@ -94,14 +94,10 @@ def _blocks(lo, end, p, excluded, spread):
 
 
 def fit_model(z, end, fs, excluded=(), context=CONTEXT, order=ORDER):
-    """Prediction model of ``z`` from its last ``context`` s before sample ``end``, the
-    samples in ``excluded`` (intervals) left out as targets; None when there is too
-    little (fewer than 2 poles) or only silence; and whether the fit is clean (below).
-
-    A target less than ``p`` samples after an excluded interval has in its regressors the
-    start of a tick, which no all-pole recursion continues; they are left out too when at
-    least ``3 p`` targets remain (a clean tail, e.g. a long bounce), else kept (dense late
-    ticks: a compromise that keeps the level and decay, not the waveform)."""
+    """Prediction model of ``z`` from its last ``context`` s before sample ``end``, the samples in
+    ``excluded`` (intervals) left out as targets; None when there is too little (fewer than 2
+    poles) or only silence; and whether the fit is clean: targets within ``p`` samples after an
+    excluded interval are left out too when at least ``3 p`` targets remain."""
     lo = max(0, end - int(round(context * fs)))
     p0 = min(max(2, int(round(order * fs))), (end - lo) // 3)
     for clean in (True, False):

@@ -1,10 +1,6 @@
-"""Encoded audio whose bytes depend only on its samples and a chosen identity.
-
-libsndfile writes a time stamp into a float WAV's ``PEAK`` chunk and a random serial into
-an Ogg stream (RFC 3533, section 6: bytes 14-17 of every page header, covered by the page's
-CRC-32, polynomial 0x04C11DB7); :func:`reproducible` zeroes the time stamp and sets the
-serial to a given number (checksums recomputed), so the same samples give the same bytes.
-"""
+"""Encoded audio whose bytes depend only on its samples and a chosen identity: :func:`reproducible`
+zeroes a float WAV's ``PEAK`` time stamp and sets an Ogg stream's serial (RFC 3533, checksums
+recomputed)."""
 
 from __future__ import annotations
 

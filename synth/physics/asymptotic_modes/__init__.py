@@ -1,8 +1,5 @@
 """Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md, "Large
-free and clamped plates"): a mode is ``X(x) Y(y)``, each factor an interior term plus edge terms,
-whose edge conditions are solved alternately at a cost linear in the modes; a Rayleigh-Ritz step
-splits near-degenerate pairs. V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib.
-Dig. 8 (1976); K. Vijayakumar, J. Aeronaut. Soc. India 25 (1973); Leissa, NASA SP-160 (1969)."""
+free and clamped plates"); a Rayleigh-Ritz step splits near-degenerate pairs."""
 
 from __future__ import annotations
 

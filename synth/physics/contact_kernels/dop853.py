@@ -37,15 +37,8 @@ def end_force_factor(w, c, b):
 @compiled()
 def _time_to_end(x, w, dx, P):
     """Time left to the end of contact after a step ending with x > 0, dx < 0, and the implied
-    separation speed v; (inf, 0) while the ball moves down. With ``f = phi (v sigma)^n`` near
-    the end, to leading order in the force:
-
-        x = u sigma - G sigma^2 / 2 + phi v^n (lam sigma^(n+1) / (n+1) + sigma^(n+2) / (n+2)),
-        v = u - G sigma + phi v^n sigma^(n+1) / (n+1),
-
-    solved by Newton from ``sigma = x / (-x')``; relative error ~ sigma^(n+1), sharp near the
-    end.
-    """
+    separation speed v; (inf, 0) while the ball moves down. Newton on the leading-order expansion
+    of ``x`` and ``v`` in the force near the end, from ``sigma = x / (-x')``."""
     lam, G, n = P.lam, P.G, P.n
     u = -w
     if u <= 0.0:

@@ -1,23 +1,6 @@
-"""The dimensionless contact equations, their force, Jacobian and settling test (numba).
-
-The equations of docs/physics.md, "Hertz contact" (the thesis' eq. 2.42 with a power law,
-gravity and contact losses):
-
-    x' = w - lam * f(x, w)          x = delta / (theta v0)   (penetration)
-    w' = -f(x, w) + G               w = -v_rel / v0          (ball's downward speed)
-    f  = x^n                        (Hertz n = 3/2, power law, elastic foundation n = 2)
-    f  = max(0, (x^n (1 + c w) + b x^(1/2) w) / (1 + c lam x^n + b lam x^(1/2)))  (losses)
-
-with Hunt-Crossley's ``c = mu v0`` and the viscoelastic ``b = (3/2) A / theta`` (Kuwabara &
-Kono 1987; Brilliantov et al. 1996), time ``s = t / theta``, ``lam = beta m / theta`` and
-``G = g theta / v0``; ``I2' = f^2`` and ``L' = (f - x^n) x'`` carry the energy balance.
-Settling is exact: ``W = u^2 / 2 + x^(n+1) / (n+1) - G x`` (``u = lam G - w``) never
-increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. With a yield (Thornton's
-elastic-perfectly plastic Hertz contact, :func:`yield_law`) ``x^n`` and ``x^(1/2)`` are the
-law's force and contact radius on the branch that the largest penetration so far selects
-(docs/physics.md, "Yield of the contact"). Also the status codes and the result array of one
-impact (:func:`impact_row`, with its energy balance).
-"""
+"""The dimensionless contact equations of docs/physics.md, "Hertz contact", "Contact losses" and
+"Yield of the contact" (numba): their force, Jacobian, exact settling test, status codes and the
+result row of one impact (:func:`impact_row`, with its energy balance)."""
 
 from __future__ import annotations
 
@@ -157,7 +140,8 @@ def law_force(P, x, w, xm):
 
 @compiled()
 def rhs(P, x, w, xm):
-    """Right-hand side (x', w', I2', L') of the module docstring for the law ``P``."""
+    """Right-hand side (x', w', I2', L') of the scaled equations (docs/physics.md,
+    "Numerics") for the law ``P``."""
     f, a = law_force(P, x, w, xm)
     dx = w - P.lam * f
     return dx, P.G - f, f * f, (f - a) * dx

@@ -1,13 +1,6 @@
-"""numba kernels of a hollow ball's thin-shell contact (docs/physics.md, "Hollow balls"), scaled
-by ``theta = sqrt(m / k0)``, ``k0 = k_R + k_g``, and the length ``theta v0``:
-
-    x' = w - lam f,   w' = G - f,   f = max(0, (f_e + a k_s w) / (1 + a k_s lam))
-    f_e = r_R min(x, sqrt(x_t x)) + r_g x,   r_R = k_R / k0,  r_g = k_g / k0,  a = A / theta
-
-Smooth at first touch, it needs no series start: Dormand & Prince's 5(4) pair (J. Comput.
-Appl. Math. 6, 1980) integrates it with a cubic Hermite dense output. History row: ``s0, h,
-x0, w0, x0', w0', x1, w1, x1', w1'``.
-"""
+"""numba kernels of a hollow ball's thin-shell contact (docs/physics.md, "Hollow balls"), scaled by
+``theta = sqrt(m / k0)``: Dormand & Prince's 5(4) pair with a cubic Hermite dense output.
+History row: ``s0, h, x0, w0, x0', w0', x1, w1, x1', w1'``."""
 
 from __future__ import annotations
 
@@ -31,7 +24,7 @@ SHELL_STEP_LIMIT = 200_000
 #: Absolute tolerance relative to the local one (as the power laws' ``ABSOLUTE_FACTOR``).
 SHELL_ABSOLUTE_FACTOR = 1e-6
 
-#: The dimensionless shell law (module docstring), the kernels' one argument for it.
+#: The dimensionless shell law (docs/physics.md, "Hollow balls"), the kernels' one argument for it.
 Shell = namedtuple("Shell", ("lam", "G", "rR", "xt", "rg", "a"))
 
 #: Dormand & Prince 5(4): coupling rows, the last the 5th-order weights (its stage is the next

@@ -4,7 +4,6 @@ infinite plate's modes above the band, lumped)."""
 
 from __future__ import annotations
 
-import cmath
 import functools
 import json
 import math
@@ -81,40 +80,6 @@ class ModalPoint:
         modal = (s * self.coupling / (s * s + 2.0 * self.sigma * s + self.omega**2)).sum(axis=1)
         y = modal + self.rigid_coupling / s[:, 0] + self.residual(f)
         return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
-
-    def band_impedance(self, low: float, high: float) -> float:
-        """``1 / <Re Y>`` (N s/m) over ``[low, high]`` (Hz): an impact hammer's band-averaged
-        measurement (each mode adds ``pi c_k / 2`` to ``Int Re Y d omega``)."""
-        lo = checks.nonnegative("low", low, "Hz")
-        hi = checks.positive("high", high, "Hz")
-        if not hi > lo:
-            raise ParameterError(f"high={high!r} must be > low={low!r} (Hz)")
-        if hi > self.max_frequency:
-            raise ParameterError(
-                f"high={high!r} must be <= the band limit {self.max_frequency!r} (Hz)"
-            )
-        w_lo, w_hi = 2.0 * np.pi * lo, 2.0 * np.pi * hi
-        inside = (self.omega >= w_lo) & (self.omega < w_hi)
-        modal = 0.5 * np.pi * float(self.coupling[inside].sum())
-        # residual's tail: Int Re[beta s / (s + a)] d omega = beta (w - a atan(w / a))
-        b, a = self.residual_admittance, self.residual_rate
-        residual = b * ((w_hi - a * math.atan(w_hi / a)) - (w_lo - a * math.atan(w_lo / a)))
-        residual += _lumped_real_integral(
-            self.residual_omega, self.residual_sigma, self.residual_coupling, w_lo, w_hi
-        )
-        return (w_hi - w_lo) / (modal + residual)
-
-
-def _lumped_real_integral(omega, sigma, coupling, w_lo: float, w_hi: float) -> float:
-    """``Int Re Y d omega`` over ``[w_lo, w_hi]`` (rad/s) of the oscillators (partial fractions)."""
-    total = 0.0
-    for w0, sg, c in zip(omega, sigma, coupling, strict=True):
-        p = complex(-sg, math.sqrt(w0 * w0 - sg * sg))
-        r = c * p / (p - p.conjugate())
-        for pole, res in ((p, r), (p.conjugate(), r.conjugate())):
-            step = cmath.log(1j * w_hi - pole) - cmath.log(1j * w_lo - pole)
-            total += (-1j * res * step).real
-    return total
 
 
 #: Plate theories of the modal contact (:func:`modal_point`).

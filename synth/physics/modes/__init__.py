@@ -1,8 +1,5 @@
 """The finite rectangular plate's bending modes, Kirchhoff theory (docs/physics.md, "Plate
-modes"): simply supported edges in closed form, free and clamped by Rayleigh-Ritz, crossing over
-to dynamic edge effect modes above a low band. Shapes have mean square 1 (``M_k = rho h a b``);
-a shape's sign is arbitrary. Leissa, *Vibration of Plates*, NASA SP-160 (1969), ch. 4; Leissa,
-J. Sound Vib. 31 (1973) 257-293."""
+modes"); shapes have mean square 1 (``M_k = rho h a b``) and an arbitrary sign."""
 
 from __future__ import annotations
 

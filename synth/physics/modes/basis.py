@@ -1,8 +1,5 @@
 """The Rayleigh-Ritz basis of free and clamped plates (docs/physics.md, "Plate modes"): tensor
-products of functions orthonormal on ``[-1, 1]``, Legendre polynomials (free) or ``(1 - xi^2)^2
-p_n^(4,4)`` (clamped), so the mass matrix is the identity and the stiffness exact by
-Gauss-Legendre; parity gives four classes. Degrees per axis ``g(kappa) = kappa + 3 kappa^(1/3) +
-2`` for the band's wavenumber."""
+products of functions orthonormal on ``[-1, 1]``, so the mass matrix is the identity."""
 
 from __future__ import annotations
 

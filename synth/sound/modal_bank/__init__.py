@@ -1,14 +1,6 @@
-"""Exact pulse-to-mode synthesis (docs/physics.md, "Modal synthesis").
-
-Each mode rings after a pulse as ``q_k(t) = Re[A_nk exp(p_k (t - t_n))]``,
-``A_nk = -i b_k L_nk / omega_dk``, ``L_nk`` the pulse's Laplace transform at the pole: every
-impact is one complex amplitude per mode injected into one pass of the bank, so tails add
-exactly, onsets keep sub-sample times and nothing at or above Nyquist is rendered. The
-transforms use the trapezoid rule with one Richardson step (the pulse vanishes like
-``u^n``, so the leading error is ``C h^(n+1)``, Navot 1961) and Euler-Maclaurin end
-corrections inside a contact. Omission: each of the ``K`` modes gets the share
-``floor * reference / K`` and stops when all it could add stays within it.
-"""
+"""Exact pulse-to-mode synthesis (docs/physics.md, "Modal synthesis"): every impact is one complex
+amplitude per mode injected into one pass of the bank, so tails add exactly and onsets keep
+sub-sample times; a mode stops when all it could add stays within its share of the floor."""
 
 from synth.sound.modal_bank.bank_kernels import (
     SUB,

@@ -1,10 +1,5 @@
-"""Sound radiated by plate modes to a microphone: the Rayleigh integral (docs/physics.md,
-"Radiation").
-
-The plate ``[0, a] x [0, b]`` lies in an infinite rigid baffle at ``z = 0``; a mode's normal
-velocity ``phi_k exp(s t)`` gives the pressure ``H_k(s) exp(s t)``, Pa per m/s, with
-``H_k(s) = (rho s / (2 pi)) Int phi_k exp(-s R / c) / R dA`` for any complex ``s``.
-"""
+"""Sound radiated by plate modes to a microphone by the Rayleigh integral, plate in a rigid baffle
+(docs/physics.md, "Radiation"); gains ``H_k(s)`` in Pa per m/s."""
 
 from __future__ import annotations
 

@@ -1,10 +1,5 @@
-"""The grids of the polar rules. Angular: the arcs of a circle about the microphone's
-projection that lie on the plate (or off it, when shorter), and their Gauss-Legendre panels
-for the trigonometric degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger). Radial:
-panels with breakpoints where the set of arcs on the plate changes (a circle touching an
-edge's line, a corner), the ``r = d + L u^2`` substitution past an edge's foot, and orders
-sized for the phase of ``exp(-s R / c)`` and of the arcs' ends.
-"""
+"""The grids of the polar rules: the arcs of circles about the microphone's projection that lie on
+the plate and their Gauss-Legendre panels, and radial panels broken where the arcs change."""
 
 from __future__ import annotations
 
@@ -101,13 +96,9 @@ def bessel_orders(x: float, n_max: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4096)
 def _angular_band(x: float, tol: float) -> int:
-    """Fewest Fourier orders ``N >= x`` beyond which ``|J_n(x)| <= tol`` (``n >= N``).
-
-    A plane wave of wavenumber ``k <= k_b`` on a circle of radius ``r`` is
-    ``exp(i k r cos(theta - theta_k)) = sum_n i^n J_n(k r) exp(i n (theta - theta_k))``,
-    and ``|J_n(k r)| <= |J_n(k_b r)|`` decreases in ``n`` past ``k_b r``: a shape made
-    of such waves is, to ``tol``, a trigonometric polynomial of degree ``N``.
-    """
+    """Fewest Fourier orders ``N >= x`` beyond which ``|J_n(x)| <= tol`` (``n >= N``): by
+    Jacobi-Anger, a shape made of plane waves of wavenumber ``k <= k_b`` on a circle of radius
+    ``r`` is, to ``tol``, a trigonometric polynomial of degree ``N``."""
     n = np.arange(math.floor(x), math.floor(x) + 64 + int(8 * x ** (1.0 / 3.0)))
     if x <= RECURRENCE_MAX_X:
         j = bessel_orders(x, int(n[-1]))[n[0] :]
@@ -264,14 +255,9 @@ def radial_panels(a, b, listener, h):
 
 
 def _panel_phase(lo, hi, kind, tangents, kb, qa, z):
-    """Largest phase change (rad) over a radial panel of the polar integrand's terms.
-
-    ``exp(-q R)`` turns by at most ``|q| (R(hi) - R(lo))``; a shape's plane waves by
-    at most ``k_b`` per metre of radius inside the arcs, and by ``k_b`` per metre that
-    an arc's end travels along an edge's line at distance ``d``
-    (``sqrt(r^2 - d^2)``, much faster than ``r`` just beyond ``d``). A substituted
-    panel (``kind != 0``) is taken as twice as long in radius (``dr/du <= 2 L``).
-    """
+    """Largest phase change (rad) over a radial panel of the polar integrand's terms: of
+    ``exp(-q R)``, and of a shape's plane waves inside the arcs and at an arc's end travelling
+    along an edge's line (a substituted panel counts twice as long, ``dr/du <= 2 L``)."""
     stretch = 1.0 if kind == 0 else 2.0
     travel = max(
         (

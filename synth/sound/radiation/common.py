@@ -1,12 +1,6 @@
-"""What the rules of the Rayleigh integral share: their result, the argument checks,
-Gauss-Legendre rules, the numba kernel of the sums (run without the GIL, shared between
-worker threads) and the convergence test (:func:`refine`).
-
-The first rule is checked by one with 1.25 times the points per axis, refined again (up to
-six times) while any mode fails ``|H_fine - H_coarse| <= tol * max(|H_fine|, 1e-4 S_k)``,
-``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA >= |H_k|`` the in-phase gain (the floor
-keeps round-off from dominating modes that cancel below -80 dB).
-"""
+"""What the rules of the Rayleigh integral share: their result, argument checks, Gauss-Legendre
+rules, the numba kernel of the sums (no GIL) and the convergence test (:func:`refine`,
+docs/physics.md, "Radiation")."""
 
 from __future__ import annotations
 
@@ -366,11 +360,11 @@ def exp_halvings(q: np.ndarray, spread: float) -> int:
 
 
 def refine(rule, npoints, factor, scale, tol, max_points, panels, selective=False):
-    """Rules ``rule(level, active)`` (-> integrals and in-phase integrals of the modes
-    ``active``, indices) compared until every mode passes the test of the module docstring;
-    the gains are ``factor`` times the integrals, the bounds ``scale`` times theirs.
-    ``selective``: a mode that passes keeps that rule's gain and only the modes still
-    failing go on (each mode's test is its own: the same bound)."""
+    """Rules ``rule(level, active)`` (-> integrals and in-phase integrals of the modes ``active``,
+    indices) compared until every mode passes the test of docs/physics.md, "The quadrature of
+    the rules"; the gains are ``factor`` times the integrals, the bounds ``scale`` times theirs.
+    ``selective``: a mode that passes keeps that rule's gain and only the modes still failing go
+    on (each mode's test is its own: the same bound)."""
     m = factor.size
     active = np.arange(m)
     coarse, _ = rule(0, active)

@@ -1,13 +1,6 @@
 """The rectangle rule on grids fixed for every listener above a height (:class:`ListenerGrid`):
-shapes evaluated once, the gains at a new microphone one pass of the sums, for the live
-engine's moving listener (:meth:`synth.live.Body.move`).
-
-Equal panels at most ``h = 2 w24 / kappa`` and :data:`NEAR_FIELD_HEIGHT` long: one no longer
-than the height ``z`` keeps the singularities of ``1 / R`` outside its Bernstein ellipse of
-parameter ``2 + sqrt(5)``, more than the rectangle rule's worst graded panel, so the fixed
-panels meet every bound of its first rule. Modes in bands of wavenumber
-(:func:`~synth.sound.radiation.rules.mode_bands`), each with its own grid.
-"""
+shapes evaluated once, so the gains at a new microphone are one pass of the sums, for the live
+engine's moving listener (:meth:`synth.live.Body.move`); one grid per band of modes."""
 
 from __future__ import annotations
 

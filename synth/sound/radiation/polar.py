@@ -1,16 +1,6 @@
-"""The polar rules of the Rayleigh integral: for separable shapes ``X_i(x) Y_j(y)``
-(:func:`separable_gains`) and for sums of them, the Ritz shapes of free and clamped plates
-(:func:`summed_gains`) (docs/physics.md, "Radiation").
-
-About the microphone's projection ``R = sqrt(r^2 + z^2)`` does not depend on ``theta``, so
-``Int phi_k exp(-s R / c) / R dA = Int (r / R) exp(-s R / c) Phi_k(r) dr``, ``Phi_k(r)`` the
-shape's integral over the arcs at radius ``r`` on the plate: for ``X_i(x) Y_j(y)`` one matrix
-product per radius for every mode, a whole circle ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean
-value theorem of the Helmholtz equation), so each radius sums the shorter of the arcs on or
-off the plate; for ``phi_k = sum_ij C_kij X_i Y_j``, ``Phi_k = sum_ij C_kij A_ij`` from angular
-sums ``A_ij`` shared by every mode. Grids: :mod:`~.angular`. Each mode is refined alone; the
-in-phase bounds ``S_k`` come from a rectangle rule that resolves the shapes only.
-"""
+"""The polar rules of the Rayleigh integral (docs/physics.md, "Radiation"): for separable shapes
+``X_i(x) Y_j(y)`` (:func:`separable_gains`) and sums of them (:func:`summed_gains`), integrated
+over arcs about the microphone's projection (grids: :mod:`~.angular`)."""
 
 from __future__ import annotations
 
@@ -60,13 +50,9 @@ POLAR_REVISION = 2
 
 @compiled(nogil=True)
 def _add_circle_sums(radii, signs, wavenumbers, amplitudes, out):  # pragma: no cover
-    """``out[i, k] += signs[i] amplitudes[k] J_0(wavenumbers[k] radii[i])`` for the rows
-    with ``signs[i] != 0`` (radii > 0 m, wavenumbers >= 0 rad/m).
-
-    The Hankel expansion for every mode at ``max(k r, 25)`` (a loop that vectorises:
-    ``1 / (k r)`` and ``sqrt(1 / (k r))`` from per-mode and per-radius factors), then
-    Cephes for the modes below 25 (the smallest wavenumbers: taken in increasing order).
-    """
+    """``out[i, k] += signs[i] amplitudes[k] J_0(wavenumbers[k] radii[i])`` for the rows with
+    ``signs[i] != 0`` (radii > 0 m, wavenumbers >= 0 rad/m): the Hankel expansion, vectorised
+    over the modes, then Cephes for the modes with ``k r < 25``."""
     m = wavenumbers.size
     order = np.argsort(wavenumbers)
     inv_k = np.empty(m)

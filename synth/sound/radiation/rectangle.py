@@ -1,12 +1,5 @@
-"""The rectangle rule of the Rayleigh integral (:func:`rayleigh_gains`): tensor
-Gauss-Legendre panels along x and y, for any shapes.
-
-Panels are at most ``h = 2 w24 / kappa`` long, ``kappa = max_wavenumber + max|s| / c``
-(rad/m) and ``w24`` the largest half-panel phase that 24-point Gauss-Legendre integrates to
-``tol / 10``; towards the microphone's projection they are graded (at most ``2 max(z, d)``
-long) so that the ``1 / R`` peak is resolved for any height ``z > 0`` (docs/physics.md,
-"Radiation").
-"""
+"""The rectangle rule of the Rayleigh integral (:func:`rayleigh_gains`): tensor Gauss-Legendre
+panels for any shapes, graded towards the microphone's projection (docs/physics.md, "Radiation")."""
 
 from __future__ import annotations
 
@@ -367,13 +360,10 @@ def _rule_result(evaluate, size, listener_position, s, settings: dict, local_pha
 
 
 def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
-    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`. With
-    ``acoustic`` (the part ``max|s| / c`` of ``kappa``, rad/m) each panel's orders are for its
-    own bound of the phase's rate along the axis,
-    ``kappa - acoustic (1 - slope)``: along x the acoustic phase ``Im(s) R / c`` changes
-    at ``|s| / c |dR/dx|``, and ``|dR/dx| = |x - xl| / R <= slope = d / sqrt(d^2 + z^2)``,
-    ``d`` the distance from the microphone's projection to the panel's far end (the same
-    along y). The panels themselves are those of ``kappa``."""
+    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`. With ``acoustic``
+    (the part ``max|s| / c`` of ``kappa``, rad/m) each panel's orders are for its own bound of the
+    phase's rate, ``kappa - acoustic (1 - d / sqrt(d^2 + z^2))``, ``d`` the distance from the
+    microphone's projection to the panel's far end (docs/physics.md, "Radiation")."""
     xl, yl, zl = listener
     h = panel_length(kappa, tol_panel)
     out = []

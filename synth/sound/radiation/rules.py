@@ -1,14 +1,6 @@
-"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface (:class:`Rule`)
-and the choice among them (:func:`choose_rule`).
-
-Every rule ends with the same convergence test (:func:`~synth.sound.radiation.common.refine`),
-so each holds the error bound ``tol`` while its check rule fits ``max_points``; they differ in
-cost, counted before any mode is solved from their own panel builders for the largest bending
-and acoustic wavenumbers ``kb``, ``qa`` (rad/m). The unit is a *term* (a multiply-add, an
-exponential, a Bessel or shape factor value); the shipped rates (:data:`RATES`, ``synth bench
-cost --record``) turn terms into rectangle-term equivalents, so the choice and the budget's
-cut do not depend on the machine (``synth bench rules`` prints each rule's cost and choice).
-"""
+"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface (:class:`Rule`) and
+the choice among them (:func:`choose_rule`) by a cost in rectangle-term equivalents counted
+before any mode is solved (:data:`RATES`; docs/physics.md, "Choosing a rule")."""
 
 from __future__ import annotations
 
