@@ -449,14 +449,16 @@ def format_thesis(c: dict) -> str:
 
     lines = [
         "Engine: the thesis' model in the engine (Hertz, the plate as its impedance) unless the "
-        "quantity names another model. The last column says what the thesis model and thesis "
-        "measurement columns hold (measured, derived from measurements and how, or the thesis' "
-        "model) and how the engine's value was read.",
+        "quantity names another model. The last column points to the list below the table, "
+        "which says what the thesis model and thesis measurement columns hold (measured, "
+        "derived from measurements and how, or the thesis' model) and how the engine's value "
+        "was read.",
         "",
         "| quantity | engine | thesis model | thesis measurement | engine - measurement | "
-        "what the columns hold |",
+        "columns hold |",
         "|---|---|---|---|---|---|",
     ]
+    sources: dict[str, int] = {}  # what the columns hold -> its number in the list
     for row in c["rows"]:
         unit = row["unit"]
         scale, label, fmt = _THESIS_UNITS[unit]
@@ -472,7 +474,10 @@ def format_thesis(c: dict) -> str:
             gap_text = "inside" if gap == 0.0 else fmt.format(gap * scale)
         values = [_shown(row[k], scale, fmt) for k in ("engine", "model", "measured")]
         held = "; ".join(t for t in (row.get("sources", ""), row["note"]) if t) or "-"
-        lines.append(f"| {row['quantity']}{label} | {' | '.join(values)} | {gap_text} | {held} |")
+        key = f"[{sources.setdefault(held, len(sources) + 1)}]"
+        lines.append(f"| {row['quantity']}{label} | {' | '.join(values)} | {gap_text} | {key} |")
+    lines += ["", "What the columns hold:", ""]
+    lines += [f"- [{number}] {held}" for held, number in sources.items()]
     t = c["first_tick"]
     lines += [
         "",

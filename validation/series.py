@@ -132,8 +132,10 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     heard = [t.restitution for t in ticks[2:]]
     heard_speeds = [t.speed for t in ticks[1:-1]]
     ring = [i.plate_velocity / i.speed for i in seq]
-    ring_low = [float(i.plate_state.v[low].sum()) / i.speed for i in seq]
-    ring_mid = [float(i.plate_state.v[mid].sum()) / i.speed for i in seq]
+    # the band's modes only: the state holds the residual's lumped modes after them
+    band = [i.plate_state.v[: i.plate_state.n_band] for i in seq]
+    ring_low = [float(v[low].sum()) / i.speed for v, i in zip(band, seq, strict=True)]
+    ring_mid = [float(v[mid].sum()) / i.speed for v, i in zip(band, seq, strict=True)]
     K = contact_parameters(scene.ball, scene.plate, c.law, **c.options()).stiffness
     modulus = 0.75 * K / math.sqrt(scene.ball.radius)
     note = "measured: e falls as the speed falls below 0.2 m/s (thesis 3.5)"
