@@ -137,3 +137,27 @@ def test_tick_decay_follows_the_envelope_smoothing():
     slope = np.polyfit(np.nonzero(fit)[0] / fs, level[fit], 1)[0]
     ringing = -20.0 * math.log10(math.e) / slope
     assert envelope_decay_time(x, fs, 5e-3) == pytest.approx(ringing, rel=0.25)
+
+
+@pytest.mark.slow
+def test_the_thesis_study_of_a_series_end_reads_e_alike_from_onsets_and_from_ticks():
+    # `synth bench thesis`'s end-of-series rows, run whole: every figure finite, and per speed
+    # bin the restitution read from the analysis' ticks equals the one read from the
+    # scheduler's onsets within the timing of a sample per onset (a ratio of two flight times,
+    # each within 1 / samplerate, over the bin's shortest flight 2 v_low / g)
+    from validation.modal import LATE_SPEED_BINS
+    from validation.series import thesis_lowspeed_rows
+
+    samplerate = 16000
+    rows = thesis_lowspeed_rows(samplerate=samplerate)
+    assert all(math.isfinite(r["engine"]) for r in rows)
+    by_quantity = {r["quantity"]: r["engine"] for r in rows}
+    for low, high in LATE_SPEED_BINS:
+        e = [
+            v
+            for q, v in by_quantity.items()
+            if q.startswith(f"restitution at {low:g}-{high:g} m/s")
+        ]
+        assert len(e) == 2 and all(0.0 < x < 1.0 for x in e), e
+        shortest_flight = 2.0 * low / 9.81
+        assert abs(e[0] - e[1]) <= 2.0 * e[0] / (samplerate * shortest_flight), (low, high, e)
