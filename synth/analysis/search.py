@@ -18,7 +18,7 @@ from synth.analysis.measures import (
     with_standing_out,
 )
 from synth.analysis.options import MAX_ORDER
-from synth.analysis.residual import residual_ticks
+from synth.analysis.residual import ECHO_SLACK, residual_ticks
 from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.ringing import ringing_explained
 from synth.analysis.series import DOUBTFUL_DB, bounce_order, fitting_additions
@@ -115,12 +115,21 @@ def _with_residual_ticks(
         return meter, ticks
     rises = residual_ticks(x, onsets, settings, innovation)
     fs = settings.samplerate
+    found = _retimed(meter.found, rises, settings.min_separation)
+    if found is not meter.found:
+        meter = meter.with_found(found)
+        with one_blas_thread():
+            ticks = [meter.tick(i) for i in range(len(found))]
+        onsets = np.array([f.onset for f in found])
     added = []
+    bursts = np.sort(np.r_[onsets, [r.onset for r in rises]])
     for r in rises:
         gap = float(np.abs(onsets - r.onset).min())
         if gap < settings.min_separation:
             continue
-        if r.strength < DOUBTFUL_DB and not adds_sound(test, r.onset / fs, gap / fs):
+        if r.strength < DOUBTFUL_DB and not adds_sound(
+            test, r.onset / fs, min(gap, _half_bounce(bursts, r.onset)) / fs
+        ):
             continue  # a doubtful burst (an echo's, a reverberation's) must add sound
         added.append(FoundTick(r.onset, r.strength, None, 0, r.onset))
     added = _series_additions(meter.found, added)
@@ -135,6 +144,36 @@ def _with_residual_ticks(
             return trial, measured
         added = [f for i, f in enumerate(found) if i in new and i not in dropped]
     return meter, ticks
+
+
+def _half_bounce(bursts: np.ndarray, onset: float) -> float:
+    """Half the time (samples) from the burst before ``onset`` among ``bursts`` (the ticks and the
+    residual's bursts, samples, in time order): the longest stretch each side of ``onset`` whose
+    spectra :func:`~synth.analysis.validity.adds_sound` compares. A longer stretch before reaches
+    into the previous impact's first milliseconds, where its own broad, fast-decaying sound
+    outweighs a later impact as loud as the ringing; a stretch over the burst before compares
+    the onset with that burst, not with the ringing. Infinite before the first burst."""
+    before = bursts[bursts < onset]
+    return 0.5 * float(onset - before[-1]) if before.size else math.inf
+
+
+def _retimed(found: list[FoundTick], rises: list, min_sep: int) -> list[FoundTick]:
+    """``found`` with each tick's onset moved to the residual's burst that starts it: a burst within
+    ``min_sep`` before a tick (part of it) and over :data:`~synth.analysis.residual.ECHO_SLACK`
+    samples earlier than its onset (the searches time one burst within two sample periods). The
+    residual is the recording less the free ringing its past predicts, so where it first rises
+    beyond the F quantile is where the impact's sound starts; a whitened burst whose first,
+    weaker arrival (a microphone hears the plate's nearest point before the impact point) falls
+    under the onset walk's level is otherwise timed at its later peak. ``found`` itself where no
+    tick moves."""
+    onsets = np.array([f.onset for f in found])
+    out = list(found)
+    for r in rises:
+        i = int(np.argmin(np.abs(onsets - r.onset)))
+        lead = onsets[i] - r.onset
+        if ECHO_SLACK < lead < min_sep and (i == 0 or r.onset > onsets[i - 1] + min_sep):
+            out[i] = replace(found[i], onset=r.onset, detected=min(found[i].detected, r.onset))
+    return out if any(a is not b for a, b in zip(out, found)) else found
 
 
 def _series_additions(found: list[FoundTick], added: list[FoundTick]) -> list[FoundTick]:
