@@ -233,23 +233,30 @@ def test_a_chatters_impact_is_judged_over_half_its_bounce():
     assert not rise_verdict(test_one, 0.017, half).adds
 
 
-def test_a_tick_is_retimed_to_the_residuals_earlier_start():
-    # a microphone hears the plate's nearest point first: a whitened burst whose first, weak
-    # arrival falls under the onset walk's level is timed at its peak, 0.6 ms late; the
-    # residual (the recording less its predicted free ringing) rises at the first arrival,
-    # which is where the impact's sound starts. A rise within two sample periods of the onset
-    # (the searches' agreement) or after it, or nearer the tick before, moves nothing.
+def test_a_new_bursts_bounce_is_timed_from_the_residuals_start_of_the_tick_before():
+    # a microphone hears the plate's nearest point first: step 4 times a whitened burst whose
+    # first, weak arrival falls under its walk's level at its peak, 0.6 ms late, and the
+    # bounce to the next tick shrinks to 15.4 ms, so the new burst's 15.5 ms after it looks
+    # grown and is left out; timed where the residual rises, the ticks' bounces are 16.6 and
+    # 16.0 ms, and the burst's 15.5 ms stays. A rise within two sample periods
+    # of an onset (the searches' agreement), after it, or nearer the tick before, moves
+    # nothing. The reported onsets stay step 4's.
     from synth.analysis.measures import FoundTick
     from synth.analysis.residual import Rise
-    from synth.analysis.search import _retimed
+    from synth.analysis.search import _residual_timed, _series_additions
 
     fs = 96000
     min_sep = int(0.001 * fs)
-    found = [FoundTick(on * fs, 30.0, None, 0, on * fs) for on in (0.005, 0.2, 0.35)]
-    early = Rise(0.3494 * fs, 1.0)
-    out = _retimed(found, [early], min_sep)
-    assert [f.onset for f in out] == [found[0].onset, found[1].onset, early.onset]
-    assert out[2].detected == early.onset
-    near = Rise(0.35 * fs - 1.5, 1.0)
-    late = Rise(0.2 * fs + 20.0, 1.0)
-    assert _retimed(found, [near, late], min_sep) is found
+    times = np.array([0.2, 0.25, 0.27, 0.2866, 0.3026]) * fs
+    late = times.copy()
+    late[3] += 0.0006 * fs
+    found = [FoundTick(on, 30.0, None, 0, on) for on in late]
+    start = Rise(times[3], 1.0)
+    timed = _residual_timed(late, [start], min_sep)
+    assert np.array_equal(timed, times)
+    burst = FoundTick(times[4] + 0.0155 * fs, 1.0, None, 0, times[4] + 0.0155 * fs)
+    assert _series_additions(found, late, [burst]) == []
+    assert _series_additions(found, timed, [burst]) == [burst]
+    near = Rise(late[3] - 1.5, 1.0)
+    after = Rise(late[1] + 20.0, 1.0)
+    assert np.array_equal(_residual_timed(late, [near, after], min_sep), late)

@@ -115,12 +115,6 @@ def _with_residual_ticks(
         return meter, ticks
     rises = residual_ticks(x, onsets, settings, innovation)
     fs = settings.samplerate
-    found = _retimed(meter.found, rises, settings.min_separation)
-    if found is not meter.found:
-        meter = meter.with_found(found)
-        with one_blas_thread():
-            ticks = [meter.tick(i) for i in range(len(found))]
-        onsets = np.array([f.onset for f in found])
     added = []
     bursts = np.sort(np.r_[onsets, [r.onset for r in rises]])
     for r in rises:
@@ -132,7 +126,8 @@ def _with_residual_ticks(
         ):
             continue  # a doubtful burst (an echo's, a reverberation's) must add sound
         added.append(FoundTick(r.onset, r.strength, None, 0, r.onset))
-    added = _series_additions(meter.found, added)
+    timed = _residual_timed(onsets, rises, settings.min_separation)
+    added = _series_additions(meter.found, timed, added)
     while added:
         found = sorted(meter.found + added, key=lambda f: f.onset)
         trial = meter.with_found(found)
@@ -157,30 +152,33 @@ def _half_bounce(bursts: np.ndarray, onset: float) -> float:
     return 0.5 * float(onset - before[-1]) if before.size else math.inf
 
 
-def _retimed(found: list[FoundTick], rises: list, min_sep: int) -> list[FoundTick]:
-    """``found`` with each tick's onset moved to the residual's burst that starts it: a burst within
-    ``min_sep`` before a tick (part of it) and over :data:`~synth.analysis.residual.ECHO_SLACK`
-    samples earlier than its onset (the searches time one burst within two sample periods). The
-    residual is the recording less the free ringing its past predicts, so where it first rises
-    beyond the F quantile is where the impact's sound starts; a whitened burst whose first,
-    weaker arrival (a microphone hears the plate's nearest point before the impact point) falls
-    under the onset walk's level is otherwise timed at its later peak. ``found`` itself where no
-    tick moves."""
-    onsets = np.array([f.onset for f in found])
-    out = list(found)
+def _residual_timed(onsets: np.ndarray, rises: list, min_sep: int) -> np.ndarray:
+    """``onsets`` (samples) as the residual times them, for the bounces its new bursts make: each
+    moved to a burst of ``rises`` within ``min_sep`` before it (part of it) and over
+    :data:`~synth.analysis.residual.ECHO_SLACK` samples earlier (the searches time one burst
+    within two sample periods). The residual is the recording less the free ringing its past
+    predicts; where it rises is where it times a burst, so a new burst's bounce is measured from
+    a tick timed the same way. Step 4 times a whitened burst whose first, weaker arrival (a
+    microphone hears the plate's nearest point before the impact point) falls under its walk's
+    level at its later peak: a bounce timed from that to a residual's burst looks grown. The
+    reported onsets stay step 4's (a band-limited burst's residual rises at its filter's
+    pre-echo, before the sinc's centre)."""
+    out = np.array(onsets, dtype=float)
     for r in rises:
         i = int(np.argmin(np.abs(onsets - r.onset)))
         lead = onsets[i] - r.onset
         if ECHO_SLACK < lead < min_sep and (i == 0 or r.onset > onsets[i - 1] + min_sep):
-            out[i] = replace(found[i], onset=r.onset, detected=min(found[i].detected, r.onset))
-    return out if any(a is not b for a, b in zip(out, found)) else found
+            out[i] = r.onset
+    return out
 
 
-def _series_additions(found: list[FoundTick], added: list[FoundTick]) -> list[FoundTick]:
-    """The ``added`` ticks that leave the bounces of ``found`` with them no less like a ball's
-    (:func:`~synth.analysis.series.fitting_additions`)."""
+def _series_additions(
+    found: list[FoundTick], timed: np.ndarray, added: list[FoundTick]
+) -> list[FoundTick]:
+    """The ``added`` ticks that leave the bounces of ``found`` (their onsets ``timed``, samples)
+    with them no less like a ball's (:func:`~synth.analysis.series.fitting_additions`)."""
     ticks = sorted(
-        [(f.onset, False, f) for f in found] + [(f.onset, True, f) for f in added],
+        [(on, False, f) for on, f in zip(timed, found)] + [(f.onset, True, f) for f in added],
         key=lambda t: t[0],
     )
     onsets = np.array([t[0] for t in ticks])
