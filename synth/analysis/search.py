@@ -18,7 +18,7 @@ from synth.analysis.measures import (
     with_standing_out,
 )
 from synth.analysis.options import MAX_ORDER
-from synth.analysis.residual import residual_ticks
+from synth.analysis.residual import ECHO_SLACK, residual_ticks
 from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.ringing import ringing_explained
 from synth.analysis.series import DOUBTFUL_DB, bounce_order, fitting_additions
@@ -116,14 +116,18 @@ def _with_residual_ticks(
     rises = residual_ticks(x, onsets, settings, innovation)
     fs = settings.samplerate
     added = []
+    bursts = np.sort(np.r_[onsets, [r.onset for r in rises]])
     for r in rises:
         gap = float(np.abs(onsets - r.onset).min())
         if gap < settings.min_separation:
             continue
-        if r.strength < DOUBTFUL_DB and not adds_sound(test, r.onset / fs, gap / fs):
+        if r.strength < DOUBTFUL_DB and not adds_sound(
+            test, r.onset / fs, min(gap, _half_bounce(bursts, r.onset)) / fs
+        ):
             continue  # a doubtful burst (an echo's, a reverberation's) must add sound
         added.append(FoundTick(r.onset, r.strength, None, 0, r.onset))
-    added = _series_additions(meter.found, added)
+    timed = _residual_timed(onsets, rises, settings.min_separation)
+    added = _series_additions(meter.found, timed, added)
     while added:
         found = sorted(meter.found + added, key=lambda f: f.onset)
         trial = meter.with_found(found)
@@ -137,11 +141,44 @@ def _with_residual_ticks(
     return meter, ticks
 
 
-def _series_additions(found: list[FoundTick], added: list[FoundTick]) -> list[FoundTick]:
-    """The ``added`` ticks that leave the bounces of ``found`` with them no less like a ball's
-    (:func:`~synth.analysis.series.fitting_additions`)."""
+def _half_bounce(bursts: np.ndarray, onset: float) -> float:
+    """Half the time (samples) from the burst before ``onset`` among ``bursts`` (the ticks and the
+    residual's bursts, samples, in time order): the longest stretch each side of ``onset`` whose
+    spectra :func:`~synth.analysis.validity.adds_sound` compares. A longer stretch before reaches
+    into the previous impact's first milliseconds, where its own broad, fast-decaying sound
+    outweighs a later impact as loud as the ringing; a stretch over the burst before compares
+    the onset with that burst, not with the ringing. Infinite before the first burst."""
+    before = bursts[bursts < onset]
+    return 0.5 * float(onset - before[-1]) if before.size else math.inf
+
+
+def _residual_timed(onsets: np.ndarray, rises: list, min_sep: int) -> np.ndarray:
+    """``onsets`` (samples) as the residual times them, for the bounces its new bursts make: each
+    moved to a burst of ``rises`` within ``min_sep`` before it (part of it) and over
+    :data:`~synth.analysis.residual.ECHO_SLACK` samples earlier (the searches time one burst
+    within two sample periods). The residual is the recording less the free ringing its past
+    predicts; where it rises is where it times a burst, so a new burst's bounce is measured from
+    a tick timed the same way. Step 4 times a whitened burst whose first, weaker arrival (a
+    microphone hears the plate's nearest point before the impact point) falls under its walk's
+    level at its later peak: a bounce timed from that to a residual's burst looks grown. The
+    reported onsets stay step 4's (a band-limited burst's residual rises at its filter's
+    pre-echo, before the sinc's centre)."""
+    out = np.array(onsets, dtype=float)
+    for r in rises:
+        i = int(np.argmin(np.abs(onsets - r.onset)))
+        lead = onsets[i] - r.onset
+        if ECHO_SLACK < lead < min_sep and (i == 0 or r.onset > onsets[i - 1] + min_sep):
+            out[i] = r.onset
+    return out
+
+
+def _series_additions(
+    found: list[FoundTick], timed: np.ndarray, added: list[FoundTick]
+) -> list[FoundTick]:
+    """The ``added`` ticks that leave the bounces of ``found`` (their onsets ``timed``, samples)
+    with them no less like a ball's (:func:`~synth.analysis.series.fitting_additions`)."""
     ticks = sorted(
-        [(f.onset, False, f) for f in found] + [(f.onset, True, f) for f in added],
+        [(on, False, f) for on, f in zip(timed, found)] + [(f.onset, True, f) for f in added],
         key=lambda t: t[0],
     )
     onsets = np.array([t[0] for t in ticks])
