@@ -174,24 +174,11 @@ AHEAD = {"live": _live, "live-rolling": _live_rolling, "stiff-contact": _stiff_c
 HOLDING = "holding"
 
 
-def _mixing_first(names: list[str]) -> None:
-    """The live engine's mixing and (with ``live-rolling`` among ``names``) its rolling
-    block, on a synthetic pulse (:func:`synth.live.native.warm_up`), if ``live`` is among
-    ``names``: it solves no contact and renders no scene, so its kernels compile beside
-    the first renders of the processes that started alike, not one at a time with them
-    (each kernel's lock, :data:`synth.compilation.KERNEL_LOCKS`)."""
-    if "live" in names:
-        from synth.live import native
-
-        native.warm_up(rolling="live-rolling" in names)
-
-
 def compile_ahead(folder: str, names: list[str], stream=None) -> None:
     """Compile the kernel groups ``names`` (keys of :data:`AHEAD`) in this order, each
     under its lock in ``folder`` (:data:`synth.compilation.LOCKS`): every lock is taken
-    before the first compile (then :data:`HOLDING` on ``stream``, stdout), the live
-    engine's mixing compiles first (:func:`_mixing_first`), and each lock is given back
-    once its group is in numba's disk cache."""
+    before the first compile (then :data:`HOLDING` on ``stream``, stdout), and each is
+    given back once its group is in numba's disk cache."""
     import fcntl
 
     handles = []
@@ -200,7 +187,6 @@ def compile_ahead(folder: str, names: list[str], stream=None) -> None:
         fcntl.flock(handle, fcntl.LOCK_EX)
         handles.append(handle)
     print(HOLDING, file=sys.stdout if stream is None else stream, flush=True)
-    _mixing_first(names)
     for name, handle in zip(names, handles, strict=True):
         AHEAD[name]()
         handle.close()

@@ -60,10 +60,7 @@ def pytest_configure(config):
 #: The kernel groups a second process compiles while the tests run, on an empty numba
 #: cache (synth.warmup.start_ahead), in this order: the stiff contact's and the live
 #: engine's, which the presets' renders (the first tests' kernels) do not compile. The
-#: live engine's mixing compiles before them (synth.warmup.compile_ahead): it solves no
-#: contact, so it does not wait for the kernels the first renders compile and both cores
-#: compile from the start; then the stiff contact, which the contact tests need before
-#: the live tests need the rest.
+#: stiff contact goes first: the contact tests need it before the live tests need theirs.
 #: A run spread over pytest-xdist workers (``-n``) compiles them ahead too, started by the
 #: controller, so that the workers load these groups rather than each compile them; the
 #: other kernels each worker compiles when it meets them first, into the numba disk cache
