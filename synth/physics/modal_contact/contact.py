@@ -100,7 +100,10 @@ class ModalImpactResult(ImpactResult):
         ts = self.step_times
         i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
         h = ts[i + 1] - ts[i]
-        delta, rate, accel = hermite((tt - ts[i]) / h, h, self.step_gaps, self.step_rates, i)
+        # the kernel's Python function, on numpy's arrays: the kernel itself would compile
+        # once more for arrays (the contact's kernels call it on floats)
+        u = (tt - ts[i]) / h
+        delta, rate, accel = hermite.py_func(u, h, self.step_gaps, self.step_rates, i)
         inside = (tt >= 0.0) & (tt <= self.separation_time) & (delta > 0.0)
         d = np.ascontiguousarray(np.where(inside, delta, 1.0))
         n = self.law_exponent
