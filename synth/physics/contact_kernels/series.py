@@ -45,9 +45,16 @@ def series_len(j, n):
 
 @compiled()
 def half_series_coefficients(lam, G, c, b, S):
-    """Coefficients of the series in sigma = s^(1/2) (n = 3/2, b > 0, any c), each degree from
-    lower ones with x = sigma^2 Y, x^(1/2) = sigma R, x^(3/2) = sigma^3 A, x' = P, w = W.
-    Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q."""
+    """Coefficients of the series in sigma = s^(1/2) (n = 3/2, b > 0, any c).
+
+    With x = sigma^2 Y, x^(1/2) = sigma R, x^(3/2) = sigma^3 A, x' = P, w = W:
+
+        F[k] = T[k-3] + b Q[k-1],   T = A (1 + c P),  Q = R P,
+        W[k] = 2 (G [k = 2] - F[k-2]) / k  (W[0] = 1, W[1] = 0),   P[k] = W[k] - lam F[k],
+        Y[k] = 2 P[k] / (k + 2),   R[k] = (Y[k] - sum_{0<i<k} R[i] R[k-i]) / 2  (R[0] = 1),
+
+    each from lower degrees. Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q.
+    """
     S[:] = 0.0
     Y = S[0, 0]
     W = S[1, 0]
@@ -169,9 +176,16 @@ def truncation_error(S, s1, n, b):
 
 @compiled()
 def series_coefficients(P, S):
-    """Coefficients of the series in s and b = s^n (``d = i + j n``), ``A = X^n`` by Miller's
-    recurrence (Knuth TAOCP 2, eq. 4.7-(6)); Hertz, power and Hunt-Crossley laws. With b > 0:
-    ``half_series_coefficients``."""
+    """Coefficients of the series in s and b = s^n (``d = i + j n``):
+
+        W[i, j] = [i = j = 0] + G [i = 1, j = 0] - F[i-1, j-1] / d
+        X[i, j] = (W[i, j] - lam F[i, j-1]) / (d + 1)
+        A[i, j] = 1/d sum_{(a,b) != 0} X[a, b] A[i-a, j-b] ((n+1) (a + b n) - d)
+
+    (A = X^n by Miller's recurrence, Knuth TAOCP 2, eq. 4.7-(6)). Hertz and power laws: F =
+    A; Hunt-Crossley: F = A (1 + c W) / (1 + c lam b A). With b > 0:
+    ``half_series_coefficients``.
+    """
     lam, G, n, c, b = P.lam, P.G, P.n, P.c, P.b
     if b != 0.0:
         half_series_coefficients(lam, G, c, b, S)
