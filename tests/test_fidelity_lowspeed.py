@@ -145,6 +145,7 @@ def test_the_thesis_study_of_a_series_end_reads_e_alike_from_onsets_and_from_tic
     # bin the restitution read from the analysis' ticks equals the one read from the
     # scheduler's onsets within the timing of a sample per onset (a ratio of two flight times,
     # each within 1 / samplerate, over the bin's shortest flight 2 v_low / g)
+    from synth.constants import GRAVITY
     from validation.modal import LATE_SPEED_BINS
     from validation.series import thesis_lowspeed_rows
 
@@ -159,5 +160,5 @@ def test_the_thesis_study_of_a_series_end_reads_e_alike_from_onsets_and_from_tic
             if q.startswith(f"restitution at {low:g}-{high:g} m/s")
         ]
         assert len(e) == 2 and all(0.0 < x < 1.0 for x in e), e
-        shortest_flight = 2.0 * low / 9.81
+        shortest_flight = 2.0 * low / GRAVITY
         assert abs(e[0] - e[1]) <= 2.0 * e[0] / (samplerate * shortest_flight), (low, high, e)

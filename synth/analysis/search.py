@@ -148,8 +148,8 @@ def _half_bounce(bursts: np.ndarray, onset: float) -> float:
     into the previous impact's first milliseconds, where its own broad, fast-decaying sound
     outweighs a later impact as loud as the ringing; a stretch over the burst before compares
     the onset with that burst, not with the ringing. Infinite before the first burst."""
-    before = bursts[bursts < onset]
-    return 0.5 * float(onset - before[-1]) if before.size else math.inf
+    i = int(np.searchsorted(bursts, onset))
+    return 0.5 * float(onset - bursts[i - 1]) if i else math.inf
 
 
 def _residual_timed(onsets: np.ndarray, rises: list, min_sep: int) -> np.ndarray:

@@ -86,8 +86,9 @@ def main(argv=None) -> int:
         with warnings.catch_warnings(), _silent_swallowed_terminations():
             warnings.showwarning = _show_warning
             status = args.func(args)
-        if commits_refused_by() is not None:  # a SIGTERM that some code swallowed
-            raise commits_refused_by()
+        stop = commits_refused_by()
+        if stop is not None:  # a SIGTERM that some code swallowed
+            raise stop
         return status
     except SynthError as exc:
         print(f"synth: error: {exc}", file=sys.stderr)
