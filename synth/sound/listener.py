@@ -49,8 +49,8 @@ def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
 
 
 def _budget_named(message, max_points):
-    """A warning of the sums stopped at ``max_points`` (the radiation budget's cut) reworded
-    to name the setting to change, ``SYNTH_MAX_RADIATION_WORK``; any other as it is."""
+    """A warning of the sums stopped at ``max_points`` (the budget's cut) reworded to name
+    ``SYNTH_MAX_RADIATION_WORK``; any other as it is."""
     internal = f"the next rule would exceed max_points={max_points}"
     if internal not in str(message):
         return message
@@ -84,8 +84,7 @@ class ListenerOutput:
 
 def _listener_output(modes, listener, poles, ok, max_points=None) -> ListenerOutput:
     """The :class:`ListenerOutput` of ``listener`` hearing the modes ``ok`` of ``modes``
-    (``poles``, rad/s): an accelerometer the acceleration at its point, a microphone the
-    Rayleigh radiation of the baffled plate (``max_points``: the most points of one rule)."""
+    (``poles``, rad/s; ``max_points``: the most points of one radiation rule)."""
     if isinstance(listener, Accelerometer):
         phip = modes.shapes(np.array([listener.position]))[0][ok]
         return ListenerOutput(phip * poles**2, phip, 0.0, LISTENER_UNITS[Accelerometer])
@@ -207,10 +206,9 @@ def modal_model(
     max_frequency: float | None = None,
     radiation_max_points: int | None = None,
 ) -> ModalModel:
-    """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
-    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist).
-    ``radiation_max_points``: the most points of one rule of a microphone's sums (where the
-    budget stops the refinement; None: the sums' default)."""
+    """The :class:`ModalModel` of ``plate`` heard by ``listener`` at ``samplerate`` Hz, modes
+    up to ``max_frequency`` Hz (default Nyquist); ``radiation_max_points``: the budget's cut
+    of a microphone's sums (None: their default)."""
     fs = samplerate
     f_max = 0.5 * fs if max_frequency is None else max_frequency
     modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))

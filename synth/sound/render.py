@@ -90,8 +90,7 @@ render.__signature__ = inspect.Signature(
 
 
 def _checked_options(scene, options, overrides) -> RenderOptions:
-    """The scene, the plate's damping law, the cache's environment and every option
-    checked, before any work."""
+    """The scene, damping law, cache environment and options checked before any work."""
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     scene.plate.damping_law()
@@ -131,8 +130,7 @@ def _estimate(scene, budget, **options) -> cost.CostEstimate:
 
 
 def _impacts(scene, o: RenderOptions, sequence) -> BounceSequence:
-    """The drop's impacts (``sequence`` checked, or the scene's bounce series); an impact
-    the solver could not solve is refused."""
+    """The drop's impacts (``sequence`` checked, or the scene's); an unsolved one is refused."""
     if sequence is None:
         sequence = simulate_scene(scene, **o.bounces())
     else:
@@ -147,8 +145,7 @@ def _impacts(scene, o: RenderOptions, sequence) -> BounceSequence:
 
 
 def _heard_modes(scene, o: RenderOptions, radiation_max_points=None) -> ModalModel:
-    """The plate's modes heard by the scene's listener; none ringing in the band (a silent
-    render) is refused."""
+    """The plate's modes heard by the scene's listener; a silent band is refused."""
     fs, f_max = o.samplerate, o.top_frequency
     points = radiation_max_points
     model = modal_model(

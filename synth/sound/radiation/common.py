@@ -97,19 +97,13 @@ def check_settings(
 ) -> Settings:
     """The keywords of :func:`~.rectangle.rayleigh_gains` shared by every rule, checked."""
     r0 = reference_distance
-    if (
-        isinstance(max_points, bool)
-        or not isinstance(max_points, (int, np.integer))
-        or max_points <= 0
-    ):
-        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
     return Settings(
         kb=checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m"),
         rho=checks.positive("air_density", air_density, "kg/m^3"),
         c=checks.positive("sound_speed", sound_speed, "m/s"),
         r0=None if r0 is None else checks.nonnegative("reference_distance", r0, "metres"),
         tol=checks.in_range("tol", tol, *_TOL_RANGE, lo_open=False, hi_open=False),
-        max_points=max_points,
+        max_points=checks.integer_at_least("max_points", max_points, 1, "points of one rule"),
     )
 
 
@@ -313,8 +307,7 @@ def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):  # noqa: PLR
 
 @compiled(nogil=True)
 def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):  # noqa: PLR0913
-    """Add the Rayleigh sums of points ``j0 <= j < j1`` to acc_re, acc_im, mag (see
-    _rows_fast; ``halvings < 0``: the libm kernel). Runs without the GIL."""
+    """:func:`_rows_fast`, or for ``halvings < 0`` :func:`_rows_libm`, without the GIL."""
     if halvings >= 0:
         _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
     else:
@@ -396,9 +389,8 @@ def refine(rule, npoints, factor, scale, tol, max_points, panels, selective=Fals
 
 
 def gains_of(result: RadiationResult, caller: str, tol: float, full_output: bool):
-    """``result`` if ``full_output``, else its gains; if the convergence test failed, with a
-    RuntimeWarning naming the mode furthest from it (at the caller of ``caller``, the public
-    function calling this)."""
+    """``result`` if ``full_output``, else its gains, with a RuntimeWarning (at the caller of
+    ``caller``) naming the mode furthest from convergence if the test failed."""
     if full_output:
         return result
     if not result.success:

@@ -43,8 +43,7 @@ from synth.sound.radiation.common import (
 )
 from synth.sound.radiation.rectangle import apply_rule, in_phase_grid
 
-#: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
-#: earlier revision is recomputed).
+#: Revision of the polar rules' algorithm (part of the gain cache's key).
 POLAR_REVISION = 2
 
 
@@ -95,8 +94,8 @@ _DIRECT_RATIO = 10
 
 
 def _factor_subset(rows, in_use):
-    """``rows`` (sorted factor indices) for ``x_values`` / ``y_values``, or None when they
-    are every factor of the table (``0 .. max(in_use)``: the whole table, no copy)."""
+    """``rows`` (sorted factor indices) for ``x_values`` / ``y_values``; None (the whole
+    table, no copy) when they are all of ``0 .. max(in_use)``."""
     return None if rows.size == int(in_use.max()) + 1 else rows
 
 
@@ -204,9 +203,8 @@ def _apply_separable_rule(sep, setup, radii, wr, refine, active):
 
 
 def _separable_in_phase(sep, setup):
-    """``Int |phi_k| / R dA`` of separable shapes on :func:`~.rectangle.in_phase_grid`: with
-    ``|phi_k| = |X_i| |Y_j|`` one matrix product for every mode, ``|X|^T W |Y|``, ``W`` the
-    grid's weights over ``R``."""
+    """``Int |phi_k| / R dA`` of separable shapes on :func:`~.rectangle.in_phase_grid`: one
+    matrix product ``|X|^T W |Y|`` for every mode, ``W`` the grid's weights over ``R``."""
     xl, yl, zl = setup.listener
     xs, wx, ys, wy = in_phase_grid(setup.size, setup.listener, setup.settings.kb, setup.tol_panel)
     weights = (wx[:, None] * wy[None, :]) / np.sqrt(
@@ -263,10 +261,8 @@ def _summed_in_phase(shapes, setup):
 
 @dataclass(frozen=True)
 class _PolarSetup:
-    """What a polar rule about the microphone needs: the plate's ``size`` and the
-    ``listener`` (m), the poles ``q_s`` (rad/s) and ``q = s / c`` (1/m), the checked
-    ``settings``, the panel tolerance, the radial panels and their first orders, the middle
-    distance ``r_mid`` (m) and the exponentials' halvings."""
+    """A polar rule's checked arguments: ``size``, ``listener`` (m), poles ``q_s`` (rad/s) and
+    ``q = s / c`` (1/m), ``settings``, radial panels and orders, ``r_mid`` (m), halvings."""
 
     size: tuple
     listener: tuple
@@ -281,8 +277,8 @@ class _PolarSetup:
 
 
 def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarSetup:
-    """The arguments of a polar rule checked (a ParameterError names the field), and its
-    radial panels about the listener (none without modes)."""
+    """The :class:`_PolarSetup` (a ParameterError names a bad field; no panels without
+    modes)."""
     listener = check_listener(listener_position)
     q_s = check_poles(s, n_modes)
     checked = check_settings(**settings)
@@ -299,9 +295,8 @@ def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarS
 
 
 def _polar_gains(caller, shapes, listener_position, s, settings):
-    """The :class:`RadiationResult` of :func:`separable_gains` or :func:`summed_gains`
-    (``caller``) and the checked tolerance: each mode refined alone, the in-phase integrals
-    on :func:`~.rectangle.in_phase_grid`."""
+    """The :class:`RadiationResult` of ``caller`` (:func:`separable_gains` or
+    :func:`summed_gains`) and the checked tolerance, each mode refined alone."""
     from synth.physics.modes import SeparableShapes, SummedShapes
 
     kind = SeparableShapes if caller == "separable_gains" else SummedShapes

@@ -36,9 +36,8 @@ from synth.sound.radiation.common import (
     refine,
 )
 
-#: Shortest panel, relative to the plate's side: a shorter one is a rounding artefact of
-#: the stepping (dropped); the grading never steps by less, so that a microphone on the plate
-#: (1e-300 m above it) still gets a finite set of panels.
+#: Shortest panel over the plate's side: shorter ones are rounding (dropped), and the grading
+#: never steps by less, so a microphone 1e-300 m above the plate still gets finite panels.
 PANEL_RESOLUTION = 1e-12
 
 
@@ -101,9 +100,8 @@ def panel_nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def in_phase_grid(size, listener, kb: float, tol: float) -> Grid:
-    """The :class:`Grid` of the polar rules' in-phase bounds: the rectangle rule of
-    wavenumber ``2 kb`` (rad/m) refined once, which resolves the shapes and the ``1 / R``
-    peak but not the acoustic phase."""
+    """The :class:`Grid` of the polar rules' in-phase bounds: the rectangle rule at ``2 kb``
+    (rad/m) refined once (shapes and the ``1 / R`` peak resolved, not the acoustic phase)."""
     ex, ey, px0, py0 = first_rule(size[0], size[1], listener, 2.0 * kb, tol)
     refined = (np.ceil(p * REFINE).astype(np.int64) for p in (px0, py0))
     return panel_grid(ex, ey, *refined)
@@ -168,9 +166,7 @@ class ProductFactors:
         return ProductFactors(*(None if t is None else t[:, modes] for t in tables))
 
 
-# Grid points whose shape values one call of the sums kernel holds (a few hundred kB for
-# a few hundred modes: they stay in the processor's cache between their evaluation and
-# their use).
+# Grid points whose shape values one call of the sums kernel holds (they stay in cache).
 _PRODUCT_BLOCK = 64
 
 

@@ -30,12 +30,10 @@ from synth.sound.radiation.rectangle import (
     rayleigh_gains,
 )
 
-#: Largest ratio of the wavenumbers (bending plus acoustic) of the fastest and the slowest
-#: mode of one band of :class:`BandedRule`: points grow as ``kappa^2``, so each mode's grid
-#: has at most 1.21 times the points it needs, while each band adds its own panels.
+#: Largest ratio of the wavenumbers (bending plus acoustic) of the fastest and slowest mode of
+#: a :class:`BandedRule` band: at most ``1.1^2`` times the points a mode needs (``~kappa^2``).
 BAND_RATIO = 1.1
-#: Bands of frequency, equal in ratio, in which :class:`BandedRule`'s estimate counts the edge
-#: effect modes, each on the grid of its top (:func:`edge_split`).
+#: Bands of frequency, equal in ratio, of :class:`BandedRule`'s estimate (:func:`edge_split`).
 EDGE_BANDS = 6
 #: Terms per radius and mode of the polar rule's radial sums: the exponential and ``J_0``.
 POLAR_RADIAL_TERMS = 2
@@ -60,9 +58,8 @@ class RuleWork:
 
 @functools.cache
 def rule_weights() -> dict[str, float]:
-    """Rectangle-term equivalents of one term of each radiation rule, by name: the
-    rectangle rule's terms per second over the rule's, in :data:`RATES` (shipped, not
-    measured where it runs)."""
+    """Rectangle-term equivalents of one term of each rule, by name: the rectangle rule's
+    terms per second over the rule's, in the shipped :data:`RATES`."""
     try:
         rates = json.loads(RATES.read_text())["radiation_terms_per_second"]
     except FileNotFoundError:
@@ -84,9 +81,8 @@ def weighted_counts(counts: RuleWork) -> RuleWork:
 
 
 def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
-    """The rectangle rule's work at the wavenumber ``kappa`` (rad/m) for ``modes`` modes
-    whose shape values cost ``terms``: the points of its tensor grid, each rule's orders
-    ``REFINE^l`` times the first rule's."""
+    """The rectangle rule's work at ``kappa`` (rad/m) for ``modes`` modes whose shape values
+    cost ``terms``: its tensor grid's points, rule ``l`` at ``REFINE^l`` the first's orders."""
     _, _, px, py = first_rule(size[0], size[1], listener, kappa, tol_panel)
     points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in LEVELS]
     work = [float(n) * modes * (1 + terms) for n in points]
@@ -158,17 +154,14 @@ class Problem:
 
 @dataclass(frozen=True)
 class Estimate:
-    """What one rule takes on one :class:`Problem`: its ``counts``, ``fits`` whether its
-    check rule (the first rule refined once) holds at most ``max_points`` points, and
-    ``cost`` in rectangle-term equivalents (:func:`~.weighted_counts`)."""
+    """One rule on one :class:`Problem`: ``counts``, ``fits`` (its check rule, the first
+    refined once, within ``max_points``), ``cost`` in rectangle-term equivalents."""
 
     rule: Rule
     counts: RuleWork
     fits: bool
     cost: float
-    #: The bound of each gain's relative error the convergence test holds: ``tol`` where the
-    #: check rule fits, else none (inf).
-    error_bound: float
+    error_bound: float  # of each gain's relative error: tol where the check rule fits, else inf
 
 
 class Rule:
@@ -192,8 +185,8 @@ class Rule:
 
 
 class RectangleRule(Rule):
-    """Tensor Gauss-Legendre panels (:func:`~.rectangle.rayleigh_gains`): any shapes; each
-    point costs per mode an exponential and a shape value."""
+    """Tensor Gauss-Legendre panels (:func:`~.rectangle.rayleigh_gains`), any shapes: per
+    point and mode an exponential and a shape value."""
 
     name = "rectangle"
     shapes = ("separable", "summed", "any")
@@ -242,11 +235,9 @@ class SummedRule(PolarRule):
 
 
 class BandedRule(Rule):
-    """Edge effect modes by the rectangle rule band by band of wavenumber
-    (:data:`BAND_RATIO`), their shapes formed from factor tables
-    (:func:`~.rectangle.product_gains`), the Ritz modes below by the rectangle rule; its rate
-    is measured on the whole (``synth bench cost``), so the Ritz modes' terms count at the
-    same weight."""
+    """Edge effect modes by the rectangle rule band by band of wavenumber, shapes formed from
+    factor tables (:func:`~.rectangle.product_gains`), the Ritz modes below on one rule; its
+    rate is measured on the whole (``synth bench cost``)."""
 
     name = "banded"
     shapes = ("edge",)
@@ -266,9 +257,8 @@ class BandedRule(Rule):
         return RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
-        """The edge effect modes band by band of wavenumber (:data:`BAND_RATIO`), each band's
-        rule for its own fastest mode (each mode passes the same convergence test as on one
-        rule for every mode), and the Ritz modes below on one rule."""
+        """Each band's rule for its own fastest mode (every mode passes the same convergence
+        test as on one rule for all)."""
         n_low = modes.edge_effect().first_mode
         qa = np.abs(s[n_low:]) / settings["sound_speed"]
         bands = mode_bands(modes.angular_frequencies[n_low:], settings["max_wavenumber"], qa)
@@ -293,10 +283,8 @@ RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule())
 
 
 def choose_rule(problem: Problem) -> Estimate:
-    """The rule for ``problem``, as its :class:`Estimate`: among the rules that take the
-    shapes and whose check rule fits ``max_points`` (they hold the error bound ``tol``), the
-    one of least cost; if none fits, the one with the fewest points in its check rule (it
-    stops at ``max_points`` and says so)."""
+    """The :class:`Estimate` of the cheapest rule that takes the shapes and whose check rule
+    fits ``max_points`` (it holds ``tol``); if none fits, the one of fewest check points."""
     return _cheapest(problem, RULES)
 
 
@@ -323,18 +311,16 @@ def wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
 
 
 def mode_bands(omega: np.ndarray, kb: float, qa: np.ndarray) -> list:
-    """:func:`wavenumber_bands` of modes of angular frequencies ``omega`` (rad/s,
-    ascending), ``kb`` the highest one's bending wavenumber and ``qa`` their acoustic
-    wavenumbers (rad/m): each mode's ``kappa``, bending (growing as the square root of
-    the frequency) plus acoustic, made non-decreasing, in bands of :data:`BAND_RATIO`."""
+    """:func:`wavenumber_bands` (:data:`BAND_RATIO`) of modes of ascending ``omega`` (rad/s):
+    ``kappa`` = bending (``kb``, rad/m, at the highest, as ``sqrt(omega)``) plus acoustic
+    ``qa`` (rad/m), made non-decreasing."""
     kappa = kb * np.sqrt(omega / omega[-1]) + qa
     return wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
 
 
 def _band_rectangle(modes, start, stop, listener, s, settings):
-    """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
-    wavenumber among them (``max_wavenumber`` scaled by the square root of their highest
-    frequency's over the highest mode's); edge effect modes with their factor tables."""
+    """The rectangle rule of modes ``start <= k < stop`` alone at their largest bending
+    wavenumber; edge effect modes with their factor tables."""
     omega = modes.angular_frequencies
     index = np.arange(start, stop)
     size = (modes.plate.length, modes.plate.width)
@@ -369,11 +355,9 @@ def combined(parts, message: str) -> RadiationResult:
 
 
 def edge_split(kb, f_low, f_max, ritz_modes, count_below, sound_speed) -> EdgeSplit:
-    """The :class:`EdgeSplit` of a plate whose modes up to ``f_low`` (Hz) are its
-    ``ritz_modes`` Ritz modes and whose edge effect modes reach ``f_max`` (Hz), ``kb`` the
-    bending wavenumber at ``f_max`` (rad/m, growing as the square root of the frequency),
-    ``count_below(f)`` the modes below ``f`` (Hz): :data:`EDGE_BANDS` bands of frequency,
-    equal in ratio, each at the wavenumber of its top."""
+    """The :class:`EdgeSplit` of ``ritz_modes`` Ritz modes up to ``f_low`` (Hz) and edge effect
+    modes up to ``f_max`` (Hz, bending wavenumber ``kb``, rad/m; ``count_below(f)`` the modes
+    below ``f``): :data:`EDGE_BANDS` bands, each at the wavenumber of its top."""
     ratios = np.arange(EDGE_BANDS + 1) / EDGE_BANDS
     edges = f_low * (f_max / f_low) ** ratios
     counts = [int(count_below(float(f))) for f in edges]
@@ -386,10 +370,8 @@ def edge_split(kb, f_low, f_max, ritz_modes, count_below, sound_speed) -> EdgeSp
 
 
 def plate_problem(plate, f_max, *, shapes=None, **fields) -> Problem:
-    """The :class:`Problem` of ``plate``'s modes up to ``f_max`` (Hz): ``fields`` its
-    ``listener``, ``modes``, ``kb``, ``qa``, ``tol``, ``max_points`` and ``edge`` (the
-    :class:`EdgeSplit` of a plate past the Ritz crossover); ``shapes`` (default: from the
-    plate's boundary) as for :class:`Problem`."""
+    """The :class:`Problem` of ``plate``'s modes up to ``f_max`` (Hz), ``fields`` its other
+    fields (``edge`` past the Ritz crossover); ``shapes`` by default from the boundary."""
     from synth.physics.modes import ritz_factors, shape_terms, solver_sizes
 
     size = (plate.length, plate.width)
