@@ -8,14 +8,19 @@ import importlib
 import sys
 
 
-def lazy_names(package: str, table: dict[str, str]):
+def lazy_names(package: str, table: dict[str, str], submodules: dict | None = None):
     """``__getattr__`` and ``__dir__`` for ``package``: each name of ``table`` is taken from
-    its submodule (the table's value) on first use; any other name is a submodule."""
+    its submodule (the table's value, below ``package``) on first use; a name of
+    ``submodules`` is that submodule (None: any other name is the submodule of its name)."""
     module = sys.modules[package]
 
     def __getattr__(name):
         if name in table:
             value = getattr(importlib.import_module(f"{package}.{table[name]}"), name)
+        elif submodules is not None:
+            if name not in submodules:
+                raise AttributeError(f"module {package!r} has no attribute {name!r}")
+            value = importlib.import_module(f"{package}.{submodules[name]}")
         else:
             try:
                 value = importlib.import_module(f"{package}.{name}")
@@ -27,6 +32,6 @@ def lazy_names(package: str, table: dict[str, str]):
         return value
 
     def __dir__():
-        return sorted(set(vars(module)) | set(table))
+        return sorted(set(vars(module)) | set(table) | set(submodules or ()))
 
     return __getattr__, __dir__

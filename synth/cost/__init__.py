@@ -5,54 +5,24 @@ Sources: modal density, Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd 
 the solver's flops, Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3.
 """
 
-from __future__ import annotations
+from synth.lazy import lazy_names
 
-from synth.cost.estimates import (
-    RENDER_OPTIONS,
-    FirstContact,
-    body_cost,
-    check_body,
-    estimate,
-    estimate_render,
-    hertz_contact_time,
-    modal_count,
-    radiation_work,
-    solver_cost,
-)
-from synth.cost.records import (
-    AUDIO_BYTES_PER_SAMPLE,
-    BODY_MEMORY_ADVICE,
-    CHECK_SQUARES,
-    DEFAULT_MAX_MEMORY_BYTES,
-    DEFAULT_MAX_MODES,
-    DEFAULT_MAX_PULSE_POINTS,
-    DEFAULT_MAX_RADIATION_WORK,
-    DEFAULT_MAX_SOLVER_FLOPS,
-    ENVIRONMENT,
-    MODE_VALUES,
-    RADIATION_CHUNKS,
-    RADIATION_TOL,
-    RATES,
-    RENDER_MEMORY_ADVICE,
-    REST,
-    SOLVER_SQUARES,
-    BodyCost,
-    Budget,
-    CostEstimate,
-    MemoryParts,
-    RadiationWork,
-    Rates,
-    SolverCost,
-    modes_excess,
-    time_row,
-)
+#: Where each public name lives, imported on first use (PEP 562).
+_LAZY = {
+    name: module
+    for module, names in {
+        "estimates": "RENDER_OPTIONS FirstContact body_cost check_body estimate estimate_render "
+        "hertz_contact_time modal_count radiation_work solver_cost",
+        "records": "AUDIO_BYTES_PER_SAMPLE BODY_MEMORY_ADVICE CHECK_SQUARES "
+        "DEFAULT_MAX_MEMORY_BYTES DEFAULT_MAX_MODES DEFAULT_MAX_PULSE_POINTS "
+        "DEFAULT_MAX_RADIATION_WORK DEFAULT_MAX_SOLVER_FLOPS ENVIRONMENT MODE_VALUES "
+        "RADIATION_CHUNKS RADIATION_TOL RATES RENDER_MEMORY_ADVICE REST SOLVER_SQUARES BodyCost "
+        "Budget CostEstimate MemoryParts RadiationWork Rates SolverCost modes_excess time_row",
+    }.items()
+    for name in names.split()
+}
 
-__all__ = [
-    "AUDIO_BYTES_PER_SAMPLE", "BODY_MEMORY_ADVICE", "BodyCost", "Budget", "CHECK_SQUARES",
-    "CostEstimate", "DEFAULT_MAX_MEMORY_BYTES", "DEFAULT_MAX_MODES", "DEFAULT_MAX_PULSE_POINTS",
-    "DEFAULT_MAX_RADIATION_WORK", "DEFAULT_MAX_SOLVER_FLOPS", "ENVIRONMENT", "FirstContact",
-    "MODE_VALUES", "MemoryParts", "RADIATION_CHUNKS", "RADIATION_TOL", "RATES",
-    "RENDER_MEMORY_ADVICE", "RENDER_OPTIONS", "REST", "RadiationWork", "Rates", "SOLVER_SQUARES",
-    "SolverCost", "body_cost", "check_body", "estimate", "estimate_render", "hertz_contact_time",
-    "modal_count", "modes_excess", "radiation_work", "solver_cost", "time_row",
-]  # fmt: skip
+__all__ = sorted(_LAZY)
+
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

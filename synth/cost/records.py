@@ -52,17 +52,12 @@ class Budget:
 
     def __post_init__(self):
         for name in (f.name for f in dataclasses.fields(self)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ParameterError(f"budget.{name}={value!r} must be an integer >= 1")
+            checks.integer_at_least(f"budget.{name}", getattr(self, name), 1)
 
     @classmethod
     def from_environment(cls) -> Budget:
         """The budget of the variables of :data:`ENVIRONMENT` (each with its default)."""
-        values = [
-            checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
-        ]
-        return cls(*values)
+        return cls(*(checks.environment_integer(n, d, 1) for n, d in ENVIRONMENT.items()))
 
 
 def modes_excess(modes: int, max_frequency: float, budget: Budget) -> str | None:
@@ -254,19 +249,15 @@ class BodyCost:
     subject = "body"
     memory_advice = BODY_MEMORY_ADVICE
 
-    def excess(self, budget: Budget) -> list[str]:
-        """What is too big for ``budget``, each with what to change (empty: it fits)."""
-        return self._excess(budget)
-
     def check(self, budget: Budget) -> None:
         """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
         too_big = self.excess(budget)
         if too_big:
             raise ParameterError("refused before any work: " + "; ".join(too_big))
 
-    def _excess(self, budget: Budget, more: list | tuple = ()) -> list[str]:
-        """The messages of the plate's modes, ``more``, the mode solver, the radiation stage
-        and the memory beyond ``budget``."""
+    def excess(self, budget: Budget, more: list | tuple = ()) -> list[str]:
+        """What is too big for ``budget`` (the plate's modes, ``more``, the mode solver, the
+        radiation stage, the memory), each with what to change (empty: it fits)."""
         out = [modes_excess(self.modes, self.max_frequency, budget), *more]
         if self.solver_flops > budget.max_solver_flops:
             out.append(
@@ -278,10 +269,12 @@ class BodyCost:
             )
         out.append(self.radiation.excess(self.modes, budget))
         if self.memory_bytes > budget.max_memory_bytes:
+            parts = vars(self.memory)
+            top = max(parts, key=parts.get)
             out.append(
                 f"the {self.subject}'s largest arrays take about {self.memory_bytes / 2**20:.0f} "
-                f"MiB{_largest_part(self.memory)}, more than the budget of "
-                f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); "
+                f"MiB (most of it the {top}: {parts[top] / 2**20:.0f} MiB), more than the "
+                f"budget of {budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); "
                 f"{self.memory_advice}"
             )
         return [m for m in out if m]
@@ -305,7 +298,7 @@ class CostEstimate(BodyCost):
     subject = "render"
     memory_advice = RENDER_MEMORY_ADVICE
 
-    def excess(self, budget: Budget) -> list[str]:
+    def excess(self, budget: Budget, more: list | tuple = ()) -> list[str]:
         """What is too big for ``budget`` or for the render itself, each with what to
         change (empty: the render fits)."""
         out = []
@@ -316,7 +309,7 @@ class CostEstimate(BodyCost):
                 f"max_duration={self.max_duration:g} s (the render could not hold its force "
                 f"pulse); lower ball.mass or use a stiffer or heavier plate"
             )
-        pulse = []
+        pulse = list(more)
         if self.pulse_points > budget.max_pulse_points:
             pulse.append(
                 f"the longest force pulse ({self.longest_contact:.4g} s) needs "
@@ -324,7 +317,7 @@ class CostEstimate(BodyCost):
                 f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
                 f"max_frequency or ball.mass"
             )
-        return out + self._excess(budget, pulse)
+        return out + super().excess(budget, pulse)
 
     def rows(self) -> list[tuple[str, str]]:
         """(name, value with unit) rows, for ``synth info --cost``."""
@@ -347,13 +340,6 @@ class CostEstimate(BodyCost):
             *((f"  {name}", f"{getattr(self.memory, name) / 2**20:.1f} MiB") for name in parts),
             time_row(self, Rates.load()),
         ]
-
-
-def _largest_part(memory) -> str:
-    """`` (most of it the <part>: N MiB)`` for the largest part of ``memory``."""
-    parts = vars(memory)
-    name = max(parts, key=parts.get)
-    return f" (most of it the {name}: {parts[name] / 2**20:.0f} MiB)"
 
 
 @dataclass(frozen=True)

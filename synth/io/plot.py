@@ -97,8 +97,7 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     ``render``: a :class:`~synth.sound.render.Render` or any object with its ``audio``,
     ``samplerate`` (Hz), ``impacts``, ``onsets`` (s), ``settings``, ``units``, ``gain``."""
     p = check_output_path(path, "path", (".png",))
-    if isinstance(max_pulses, bool) or not isinstance(max_pulses, int) or max_pulses < 0:
-        raise ParameterError(f"max_pulses={max_pulses!r} must be an integer >= 0")
+    checks.integer_at_least("max_pulses", max_pulses, 0)
     audio = checks.audio_array("render.audio", _attr(render, "audio"))
     sr = checks.samplerate(_attr(render, "samplerate"), "render.samplerate")
     units = checks.choice("render.units", _attr(render, "units"), tuple(PHYSICAL_FULL_SCALE))

@@ -344,10 +344,6 @@ def _listener(section: dict, source: str):
     return Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
 
 
-def _is_hollow(data: dict) -> bool:
-    return data.get("ball", {}).get("kind", "solid") == "hollow"
-
-
 def _render_section(section: dict, source: str) -> dict:
     """The ``[render]`` section checked: render options and a soundfile ``subtype``."""
     from synth.sound.options import OPTIONS
@@ -390,7 +386,7 @@ def with_defaults(data: dict, *, varied=()) -> dict:
     (a bank's axes) are left out, so setting those keys later still moves them."""
     out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     out.setdefault("gravity", Scene.__dataclass_fields__["gravity"].default)
-    hollow = _is_hollow(data)
+    hollow = data.get("ball", {}).get("kind", "solid") == "hollow"
     ball_class = HollowBall if hollow else Ball
     for section, cls in (("ball", ball_class), ("plate", Plate), ("contact", Contact)):
         out[section] = {**_fixed_defaults(cls), **out.get(section, {})}

@@ -154,7 +154,8 @@ class Engine:
         self._check_open("add a body")
         self._reap()
         room = self._native.directory.shape[0]
-        if self._native.bodies_held() + len(listeners) > room:
+        held = sum(1 for r in self._native.records if r is not None)  # removed not counted
+        if held + len(listeners) > room:
             raise ParameterError(
                 f"the engine holds max_bodies={room} bodies (one per listener): no room for "
                 f"{len(listeners)} more"
@@ -204,10 +205,6 @@ class Engine:
     def bodies(self) -> tuple[Body, ...]:
         """The bodies the engine holds (a removed one until its arrays are let go)."""
         return self._bodies
-
-    def _retire(self, body: Body) -> None:
-        self._retiring.append([body, None])
-        self._reap()
 
     def _reap(self) -> None:
         """Vacate silent removed bodies from the directory, free those the mixing has left since.

@@ -507,10 +507,6 @@ class EngineState:
             heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
         )  # fmt: skip
 
-    def bodies_held(self) -> int:
-        """Bodies in the directory (removed ones not counted)."""
-        return sum(1 for r in self.records if r is not None)
-
     def vacate(self, index: int) -> tuple[int, int]:
         """Point body ``index``'s directory entry at the vacant record (one atomic word);
         returns the mixing's progress (next frame, callbacks) for :meth:`left`."""

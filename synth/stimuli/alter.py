@@ -110,10 +110,7 @@ class AlterOptions:
             raise ParameterError(f"peak_db={self.peak_db!r} must be <= 0 (dBFS)")
         if not isinstance(self.scale_amplitude, (bool, np.bool_)):
             raise ParameterError(f"scale_amplitude={self.scale_amplitude!r} must be True or False")
-        seed = self.seed
-        integer = isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_))
-        if not integer or seed < 0:
-            raise ParameterError(f"seed={seed!r} must be an integer >= 0")
+        checks.integer_at_least("seed", self.seed, 0)
 
 
 @dataclass(frozen=True)

@@ -57,17 +57,12 @@ def mismatch_sequence(
         if not isinstance(s, Scene):
             raise ParameterError(f"{name}={s!r} must be a Scene")
     timing = simulate_scene(timing_scene, rebound=_rebound_rule(restitution_scale), **options)
-    c = spectrum_scene.contact
+    s, c = spectrum_scene, spectrum_scene.contact
     solver = contact.ContactSolver.for_pair(
-        spectrum_scene.ball,
-        spectrum_scene.plate,
-        gravity=spectrum_scene.gravity,
-        law=c.law,
-        rtol=c.rtol,
-        **c.options(),
+        s.ball, s.plate, gravity=s.gravity, law=c.law, rtol=c.rtol, **c.options()
     )
-    impacts = []
-    for imp in timing:
-        res = solver.solve(imp.speed, position=spectrum_scene.position)
-        impacts.append(Impact(imp.index, imp.time, imp.speed, res, imp.restitution))
+    impacts = [
+        Impact(i.index, i.time, i.speed, solver.solve(i.speed, position=s.position), i.restitution)
+        for i in timing
+    ]
     return BounceSequence(tuple(impacts), timing.stop_reason, timing.drop_height, timing.gravity)

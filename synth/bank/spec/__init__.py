@@ -3,43 +3,23 @@
 ``default_rng([seed, i])``, so raising ``count`` only adds rows; a spec that cannot be run is
 a :class:`BankSpecError` naming the key, its value and what is allowed, before any work."""
 
-from __future__ import annotations
+from synth.lazy import lazy_names
 
-from synth.bank.spec.loading import from_dict, load
-from synth.bank.spec.model import (
-    BANK_MAX_IMPACTS,
-    ENGINE,
-    FORMATS,
-    MAX_ROWS,
-    RESTITUTION_SCALE,
-    BankSpec,
-    BankSpecError,
-    canonical,
-    compared_form,
-)
-from synth.bank.spec.naming import row_labels
-from synth.bank.spec.planning import PlanItem, differences, parse_rows, plan, scene_data
-from synth.bank.spec.sampling import LHS_BLOCK, PERMUTED_COMBINATIONS, RepeatedRowsWarning
+#: Where each public name lives, imported on first use (PEP 562).
+_LAZY = {
+    name: module
+    for module, names in {
+        "loading": "from_dict load",
+        "model": "BANK_MAX_IMPACTS ENGINE FORMATS MAX_ROWS RESTITUTION_SCALE BankSpec "
+        "BankSpecError canonical compared_form",
+        "naming": "row_labels",
+        "planning": "PlanItem differences parse_rows plan scene_data",
+        "sampling": "LHS_BLOCK PERMUTED_COMBINATIONS RepeatedRowsWarning",
+    }.items()
+    for name in names.split()
+}
 
-__all__ = [
-    "BANK_MAX_IMPACTS",
-    "BankSpec",
-    "BankSpecError",
-    "ENGINE",
-    "FORMATS",
-    "LHS_BLOCK",
-    "MAX_ROWS",
-    "PERMUTED_COMBINATIONS",
-    "PlanItem",
-    "RESTITUTION_SCALE",
-    "RepeatedRowsWarning",
-    "canonical",
-    "compared_form",
-    "differences",
-    "from_dict",
-    "load",
-    "parse_rows",
-    "plan",
-    "row_labels",
-    "scene_data",
-]
+__all__ = sorted(_LAZY)
+
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)
