@@ -1,10 +1,12 @@
 """The cold children of tests/test_cold.py: processes on empty numba caches whose compiles and
 renders those tests read. They cost a whole compile each (tens of seconds of CPU), so a run
-that reads them starts them at its start, beside the tests (tests/conftest.py), at a lower
-priority: the test processes keep their cores and the children take what the tests leave. A
-run in one process starts them on a thread of its own (:func:`start_early`); a run over
-pytest-xdist workers, on a thread of the controller (:func:`start_for_workers`), which
-writes their results into a folder the worker that reads them waits on."""
+that reads them starts them at its start, beside the tests. A run in one process starts them
+on a thread of its own at a lower priority (:func:`start_early`): the test process keeps its
+core and the children take what the other core leaves. A run over pytest-xdist workers starts
+them on a thread of the controller (:func:`start_for_workers`), at the workers' priority
+(they share both cores with two workers, and each child's time is bounded), and the
+controller writes their results into a folder the worker that reads them waits on; the
+workers take the files that read them last."""
 
 from __future__ import annotations
 
@@ -199,7 +201,7 @@ def mark_wanted(folder: Path) -> None:
 def start_for_workers(folder: Path) -> threading.Thread | None:
     """The controller of a run over workers: if a worker noted that its tests read the
     children (:func:`mark_wanted`), run :func:`run_cold_children` in ``folder`` on a thread
-    of this process at :data:`BESIDE_NICENESS`, from the start of the run, and write their
+    of this process at its priority, from the start of the run, and write their
     results (or the error's traceback) into ``folder`` once all have ended; None if no test
     reads them."""
     if not (folder / WANTED).exists():
@@ -208,7 +210,7 @@ def start_for_workers(folder: Path) -> threading.Thread | None:
 
     def run():
         try:
-            outcome = run_cold_children(folder, BESIDE_NICENESS)
+            outcome = run_cold_children(folder)
         except BaseException:  # handed to the test that reads the children
             outcome = traceback.format_exc()
         part = folder / (RESULTS + ".part")
