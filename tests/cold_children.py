@@ -1,19 +1,25 @@
 """The cold children of tests/test_cold.py: processes on empty numba caches whose compiles and
-renders those tests read. They cost a whole compile each (tens of seconds of CPU), so a run of
-the whole suite in one process starts them at its start, beside the tests (tests/conftest.py,
-:func:`start_early`), at a lower priority: the test process keeps its core and the children
-take what the other core leaves. A pytest-xdist worker runs them when a test first reads
-them, while the other worker goes on."""
+renders those tests read. They cost a whole compile each (tens of seconds of CPU), so a run
+that reads them starts them at its start, beside the tests. A run in one process starts them
+on a thread of its own at a lower priority (:func:`start_early`): the test process keeps its
+core and the children take what the other core leaves. A run over pytest-xdist workers starts
+them on a thread of the controller (:func:`start_for_workers`), at the workers' priority
+(they share both cores with two workers, and each child's time is bounded), and the
+controller writes their results into a folder the worker that reads them waits on; the
+workers take the files that read them last."""
 
 from __future__ import annotations
 
 import json
 import os
+import pickle
 import shutil
 import subprocess
 import sys
 import tempfile
 import threading
+import time
+import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +28,12 @@ from pathlib import Path
 BESIDE_NICENESS = 10
 _started: Future | None = None
 _folder: Path | None = None
+#: Environment variable: the folder of the cold children of a run over pytest-xdist workers
+#: (:func:`start_for_workers`), which the controller gives the workers before they start.
+FOLDER = "SYNTH_TEST_COLD_CHILDREN"
+#: In that folder: a worker's note that its tests read the children (:func:`mark_wanted`),
+#: the controller's that it started them, and their results (pickled, written whole).
+WANTED, STARTED, RESULTS = "wanted", "started", "results.pickle"
 
 
 def python_child(code: str, env: dict | None = None, cwd=None, args=(), niceness: int = 0):
@@ -181,6 +193,46 @@ def start_early() -> None:
     threading.Thread(target=run, name="cold-children", daemon=True).start()
 
 
+def mark_wanted(folder: Path) -> None:
+    """A worker's note in ``folder`` (:data:`FOLDER`) that its tests read the children."""
+    (folder / WANTED).touch()
+
+
+def start_for_workers(folder: Path) -> threading.Thread | None:
+    """The controller of a run over workers: if a worker noted that its tests read the
+    children (:func:`mark_wanted`), run :func:`run_cold_children` in ``folder`` on a thread
+    of this process at its priority, from the start of the run, and write their
+    results (or the error's traceback) into ``folder`` once all have ended; None if no test
+    reads them."""
+    if not (folder / WANTED).exists():
+        return None
+    (folder / STARTED).touch()
+
+    def run():
+        try:
+            outcome = run_cold_children(folder)
+        except BaseException:  # handed to the test that reads the children
+            outcome = traceback.format_exc()
+        part = folder / (RESULTS + ".part")
+        part.write_bytes(pickle.dumps(outcome))
+        os.replace(part, folder / RESULTS)
+
+    thread = threading.Thread(target=run, name="cold-children", daemon=True)
+    thread.start()
+    return thread
+
+
+def _results_of_controller(folder: Path) -> ColdChildren:
+    """The children's results the controller writes into ``folder``, once written."""
+    path = folder / RESULTS
+    while not path.exists():
+        time.sleep(0.2)
+    outcome = pickle.loads(path.read_bytes())
+    if isinstance(outcome, str):
+        raise RuntimeError(f"the cold children failed:\n{outcome}")
+    return outcome
+
+
 def remove_folder() -> None:
     """Remove the folder of children started early, once they have ended."""
     if _folder is not None and _started.done():
@@ -188,7 +240,11 @@ def remove_folder() -> None:
 
 
 def cold_children(tmp: Path) -> ColdChildren:
-    """The children's results: those started early, else run now in ``tmp``."""
+    """The children's results: those started early (by this process, or by the controller
+    of this worker), else run now in ``tmp``."""
     if _started is not None:
         return _started.result()
+    folder = os.environ.get(FOLDER)
+    if folder and (Path(folder) / STARTED).exists():
+        return _results_of_controller(Path(folder))
     return run_cold_children(tmp)

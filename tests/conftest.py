@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
+import cold_children
 import numpy as np
 import pytest
 from xdist.scheduler import LoadScopeScheduling
@@ -77,6 +78,8 @@ _LOCK_FOLDER = pytest.StashKey()
 _GROUPS = pytest.StashKey()
 #: The CPU seconds the controller of a run over workers gathers from each worker.
 _WORKERS_CPU = pytest.StashKey()
+#: The controller's folder of the cold children it runs beside the tests, and their thread.
+_COLD = pytest.StashKey()
 
 
 def _is_worker(config) -> bool:
@@ -85,21 +88,41 @@ def _is_worker(config) -> bool:
 
 
 #: The pytest-xdist group of the tests that read :func:`preset_run_from_empty_caches` (the
-#: frozen renders, the round trip): its renders are cached in the process, so these tests
-#: run on one worker, which renders each preset once.
+#: frozen renders, the round trip), one per preset (``preset-runs:NAME``): its render is
+#: cached in the process, so the tests of a preset run on one worker, which renders it once,
+#: and the presets' renders spread over the workers.
 PRESET_RUN_GROUP = "preset-runs"
+
+
+def _preset_run_group(item) -> str:
+    """The :data:`PRESET_RUN_GROUP` of a test that reads ``preset_run``: its preset is its
+    parameter ``name`` or the argument of its ``preset`` mark; one group for all the tests
+    whose preset neither names."""
+    mark = item.get_closest_marker("preset")
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    name = mark.args[0] if mark is not None else params.get("name")
+    return PRESET_RUN_GROUP if name is None else f"{PRESET_RUN_GROUP}:{name}"
+
+
+def _reads_cold_children_beside(item) -> bool:
+    """True for a test that reads the cold children which the controller of this worker
+    runs beside the tests (:data:`cold_children.FOLDER`)."""
+    return bool(os.environ.get(cold_children.FOLDER)) and "cold_children" in getattr(
+        item, "fixturenames", ()
+    )
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """The tests that read the fixture ``preset_run`` in the group :data:`PRESET_RUN_GROUP`
-    (before pytest-xdist names the groups). In a pytest-xdist worker, the files with the
-    most tests marked slow first, then the files with the most tests: the workers take
-    files in this order (:class:`FileOrGroupScheduling`), so that a long file starts early
-    rather than last, when the other worker would have nothing left to run beside it."""
+    """The tests that read the fixture ``preset_run`` in their preset's group
+    (:func:`_preset_run_group`, before pytest-xdist names the groups). In a pytest-xdist
+    worker, the files with the most tests marked slow first, then the files with the most
+    tests: the workers take files in this order (:class:`FileOrGroupScheduling`), so that a
+    long file starts early rather than last, when the other worker would have nothing left
+    to run beside it."""
     for item in items:
         if "preset_run" in getattr(item, "fixturenames", ()):
-            item.add_marker(pytest.mark.xdist_group(PRESET_RUN_GROUP))
+            item.add_marker(pytest.mark.xdist_group(_preset_run_group(item)))
     if not _is_worker(config):
         return
     _write_groups(config, items)
@@ -109,6 +132,15 @@ def pytest_collection_modifyitems(config, items):
         slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
         count[item.path] = count.get(item.path, 0) + 1
     items.sort(key=lambda item: (-slow[item.path], -count[item.path], str(item.path)))
+
+
+def _cold_children_last(items) -> bool:
+    """In a pytest-xdist worker whose controller runs the cold children beside the tests
+    (:data:`cold_children.FOLDER`): the files of the selected tests that read them moved
+    last (in place, in their order), when the children are likely done; True if any."""
+    cold = {item.path for item in items if _reads_cold_children_beside(item)}
+    items.sort(key=lambda item: item.path in cold)
+    return bool(cold)
 
 
 #: Environment variable: the folder in which each pytest-xdist worker writes the groups of
@@ -185,13 +217,17 @@ def pytest_sessionstart(session):
     os.environ[KERNEL_LOCKS] = str(folder)
     if os.environ.get("SYNTH_TEST_AHEAD") != "0":
         os.environ[LOCKS] = str(folder)
+        cold = Path(tempfile.mkdtemp(prefix="synth-cold-"))
+        config.stash[_COLD] = [cold, None]
+        os.environ[cold_children.FOLDER] = str(cold)
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_node_collection_finished(node, ids):
     """The controller, once the first worker has collected (before any test runs): start
     compiling :data:`AHEAD_GROUPS` ahead into the workers' lock folder for a run that
-    reaches them."""
+    reaches them, and the cold children beside the tests for a run that reads them (the
+    worker's note, :func:`cold_children.mark_wanted`)."""
     config = node.config
     folder = config.stash.get(_LOCK_FOLDER, None)
     if folder is None or _AHEAD in config.stash or os.environ.get("SYNTH_TEST_AHEAD") == "0":
@@ -203,26 +239,30 @@ def pytest_xdist_node_collection_finished(node, ids):
         config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS), folder)
     else:
         config.stash[_AHEAD] = None
+    if _COLD in config.stash and not config.option.collectonly:
+        config.stash[_COLD][1] = cold_children.start_for_workers(config.stash[_COLD][0])
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_finish(session):
     """On an empty numba cache, start compiling :data:`AHEAD_GROUPS` in a second process
     (the machine's second core) for a run in one process that reaches them, and the cold
-    children of tests/test_cold.py beside the tests for such a run that reads them (a
-    pytest-xdist worker runs them when its first test reads them: a second worker would
-    start them too)."""
+    children of tests/test_cold.py beside the tests for such a run that reads them. A
+    pytest-xdist worker whose selected tests read them tells its controller, which runs
+    them (:func:`cold_children.start_for_workers`), and moves their files last
+    (:func:`_cold_children_last`), before pytest-xdist sends the controller its tests."""
     config = session.config
     if os.environ.get("SYNTH_TEST_AHEAD") == "0" or config.option.collectonly:
         return
     if _is_worker(config):
+        if _cold_children_last(session.items):
+            cold_children.mark_wanted(Path(os.environ[cold_children.FOLDER]))
         return
     if _ahead_wanted(len(session.items), {item.path.name for item in session.items}):
         from synth import warmup
 
         config.stash[_AHEAD] = warmup.start_ahead(list(AHEAD_GROUPS))
     if any("cold_children" in getattr(item, "fixturenames", ()) for item in session.items):
-        import cold_children
-
         cold_children.start_early()
 
 
@@ -245,8 +285,8 @@ class ProcessCpu:
 
 def pytest_sessionfinish(session):
     """Stop the compiling process if it still runs; say so if it failed. Remove the cold
-    children's folder. A worker sends its CPU seconds to the controller (pytest-xdist's
-    ``workeroutput``)."""
+    children's folder (the controller's once they have ended). A worker sends its CPU
+    seconds to the controller (pytest-xdist's ``workeroutput``)."""
     config = session.config
     ahead = config.stash.get(_AHEAD, None)
     errors = ahead.finish() if ahead is not None else None
@@ -265,8 +305,12 @@ def pytest_sessionfinish(session):
     if _GROUPS in config.stash:
         os.environ.pop(GROUPS_FOLDER, None)
         shutil.rmtree(config.stash[_GROUPS], ignore_errors=True)
-    import cold_children
-
+    if _COLD in config.stash:  # the controller's cold children, once they have ended
+        cold, thread = config.stash[_COLD]
+        if thread is not None:
+            thread.join()
+        os.environ.pop(cold_children.FOLDER, None)
+        shutil.rmtree(cold, ignore_errors=True)
     cold_children.remove_folder()
 
 
@@ -316,6 +360,12 @@ def pytest_terminal_summary(terminalreporter, config):
         each = " + ".join(f"{workers[w].own:.1f}" for w in sorted(workers))
         children = sum(cpu.children for cpu in workers.values())
         line = f"CPU s: {len(workers)} test processes {each}, their children {children:.1f}"
+        if config.stash.get(_COLD, [None, None])[1] is not None:
+            # the controller's children: the workers, the process compiling ahead, the cold
+            # children
+            rest = ProcessCpu.of_this_process().children - ahead_s
+            rest -= sum(cpu.own + cpu.children for cpu in workers.values())
+            line += f", cold children {rest:.1f}"
     else:
         cpu = ProcessCpu.of_this_process()
         line = f"CPU s: test process {cpu.own:.1f}, its children {cpu.children - ahead_s:.1f}"

@@ -510,6 +510,7 @@ def test_validation_page_prints_the_engines_table():
 
 
 @pytest.mark.slow
+@pytest.mark.preset("table-tennis-ball-on-table")
 def test_table_tennis_preset_renders(preset_run):
     # the session's render of the preset (tests/conftest.py), which the frozen renders
     # (tests/test_frozen_renders.py) compare with its recording: a render of its own repeated

@@ -152,6 +152,7 @@ def test_roundtrip_recovers_onsets_and_restitution(name, preset_run):
 
 
 @pytest.mark.slow
+@pytest.mark.preset("steel-ball-on-steel-sheet")
 def test_roundtrip_steel_sheet_masked_ticks(preset_run):
     # The first ten ticks of the steel sheet, 14.8 to 35.2 dB under the ringing of the
     # earlier ones (TMR checked for ticks 4 and 10): steps 1-6 alone (an explicit whitening
