@@ -210,11 +210,11 @@ def start_for_workers(folder: Path) -> threading.Thread | None:
 
     def run():
         try:
-            outcome = run_cold_children(folder)
-        except BaseException:  # handed to the test that reads the children
-            outcome = traceback.format_exc()
+            data = pickle.dumps(run_cold_children(folder))
+        except BaseException:  # handed to the test that reads the children, which waits
+            data = pickle.dumps(traceback.format_exc())
         part = folder / (RESULTS + ".part")
-        part.write_bytes(pickle.dumps(outcome))
+        part.write_bytes(data)
         os.replace(part, folder / RESULTS)
 
     thread = threading.Thread(target=run, name="cold-children", daemon=True)
