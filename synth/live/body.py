@@ -514,8 +514,7 @@ class Body:
                 ring = ear._ring
                 for r in range(ring.voices.shape[0]):
                     ring.control_voice(r, int(ring.voices[r, kernel.V_ID]), stop=frames)
-        self._engine._retiring.append([self, None])
-        self._engine._reap()
+        self._engine._retire(self)
 
     def _free(self) -> None:
         """Let go of the arrays of every ear (the mixing no longer reads them)."""

@@ -206,6 +206,11 @@ class Engine:
         """The bodies the engine holds (a removed one until its arrays are let go)."""
         return self._bodies
 
+    def _retire(self, body: Body) -> None:
+        """Queue a removed ``body`` for its arrays to be let go once the mixing has left it."""
+        self._retiring.append([body, None])
+        self._reap()
+
     def _reap(self) -> None:
         """Vacate silent removed bodies from the directory, free those the mixing has left since.
         Never waits (a host's audio callback may call it)."""
